@@ -1,0 +1,23 @@
+#pragma once
+// The result of validate() and run(): empty message means success.
+#include <string>
+#include <utility>
+
+namespace mocap {
+
+class Status {
+ public:
+  Status() = default;
+  static Status error(std::string message) { return Status(std::move(message)); }
+  bool ok() const { return message_.empty(); }
+  explicit operator bool() const { return ok(); }
+  const std::string& message() const { return message_; }
+
+ private:
+  explicit Status(std::string message) : message_(std::move(message)) {
+    if (message_.empty()) message_ = "unknown error";
+  }
+  std::string message_;
+};
+
+}  // namespace mocap

@@ -1,0 +1,70 @@
+#include "tests/test_support.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mocap::test {
+
+std::filesystem::path shared_bvh_dir() {
+  const std::filesystem::path dir = std::filesystem::path(MOCAP_SHARED_DIR) / "data" / "bvh";
+  std::error_code ec;
+  return std::filesystem::is_directory(dir, ec) ? dir : std::filesystem::path{};
+}
+
+std::vector<std::filesystem::path> shared_bvh_files() {
+  std::vector<std::filesystem::path> files;
+  const auto dir = shared_bvh_dir();
+  if (dir.empty()) return files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (entry.path().extension() == ".bvh") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+Quat random_rotation(std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  return normalized({n(rng), n(rng), n(rng), n(rng)});
+}
+
+std::vector<float> random_motion(std::mt19937_64& rng, int frames, int joints, double amplitude) {
+  std::vector<float> out(std::size_t(frames) * joints * 4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int j = 0; j < joints; ++j) {
+    const Quat base = random_rotation(rng);
+    Vec3 amp[3], freq, phase;
+    for (auto& a : amp) a = {u(rng) * amplitude / 3, u(rng) * amplitude / 3, u(rng) * amplitude / 3};
+    freq = {0.01 + 0.05 * std::abs(u(rng)), 0.01 + 0.05 * std::abs(u(rng)),
+            0.01 + 0.05 * std::abs(u(rng))};
+    phase = {3 * u(rng), 3 * u(rng), 3 * u(rng)};
+    for (int t = 0; t < frames; ++t) {
+      const Vec3 v = std::sin(freq.x * t + phase.x) * amp[0] +
+                     std::sin(freq.y * t + phase.y) * amp[1] +
+                     std::sin(freq.z * t + phase.z) * amp[2];
+      store_quat(base * exp(v), out.data() + (std::size_t(t) * joints + j) * 4);
+    }
+  }
+  make_hemisphere_continuous({out.data(), frames, joints});
+  return out;
+}
+
+double rotation_error(RotationView a, RotationView b, int t, int j) {
+  return geodesic(load_quat(a.at(t, j)), load_quat(b.at(t, j)));
+}
+
+ErrorStats rotation_errors(RotationView a, RotationView b) {
+  ErrorStats s;
+  double sum = 0;
+  for (int t = 0; t < a.frames; ++t)
+    for (int j = 0; j < a.joints; ++j) {
+      const double e = rotation_error(a, b, t, j);
+      s.max = std::max(s.max, e);
+      sum += e * e;
+    }
+  const double n = double(a.frames) * a.joints;
+  s.rms = n > 0 ? std::sqrt(sum / n) : 0.0;
+  return s;
+}
+
+std::filesystem::path cli_path() { return MOCAP_CLI_PATH; }
+
+}  // namespace mocap::test

@@ -1,0 +1,42 @@
+#pragma once
+// Shared helpers of the test suite: where the real clips are, random motions, comparisons.
+#include <filesystem>
+#include <random>
+#include <vector>
+
+#include "kernels/quaternion.hpp"
+#include "kernels/tensor.hpp"
+
+namespace mocap::test {
+
+// ../shared/data/bvh beside the project, or an empty path when it is absent.
+std::filesystem::path shared_bvh_dir();
+// The .bvh files of ../shared/data/bvh, sorted; empty when absent.
+std::vector<std::filesystem::path> shared_bvh_files();
+
+// Skip the current test with a clear message when ../shared/data/bvh is absent.
+#define MOCAP_REQUIRE_SHARED_CLIPS()                                                          \
+  do {                                                                                         \
+    if (::mocap::test::shared_bvh_files().empty())                                             \
+      GTEST_SKIP() << "../shared/data/bvh not found beside the project: real-clip test skipped"; \
+  } while (0)
+
+// A random unit quaternion, uniform on SO(3).
+Quat random_rotation(std::mt19937_64& rng);
+// A smooth random motion [F][J][4]: each joint a sum of a few random sinusoids in the tangent
+// space around a random base rotation, amplitude up to `amplitude` rad; hemisphere-continuous.
+std::vector<float> random_motion(std::mt19937_64& rng, int frames, int joints,
+                                 double amplitude = 1.0);
+
+// Geodesic distance between sample (t, j) of two rotation tensors.
+double rotation_error(RotationView a, RotationView b, int t, int j);
+// Largest and RMS geodesic distance between two rotation tensors of equal shape.
+struct ErrorStats {
+  double max = 0, rms = 0;
+};
+ErrorStats rotation_errors(RotationView a, RotationView b);
+
+// Path of the mocap-clean executable built with the tests.
+std::filesystem::path cli_path();
+
+}  // namespace mocap::test
