@@ -17,8 +17,8 @@ struct TensorView {
     return data + (std::size_t(frame) * std::size_t(joints) + std::size_t(joint)) * C;
   }
   bool empty() const { return data == nullptr || frames == 0 || joints == 0; }
-  template <class U>
-  bool same_shape(const TensorView<U, C>& other) const {
+  template <class U, int D>
+  bool same_shape(const TensorView<U, D>& other) const {  // same frames and joints
     return frames == other.frames && joints == other.joints;
   }
 };
