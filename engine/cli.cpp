@@ -1,19 +1,127 @@
 #include "engine/cli.hpp"
 
 #include <CLI/CLI.hpp>
+#include <fmt/core.h>
+
+#include "engine/commands.hpp"
+#include "engine/version.hpp"
 
 namespace mocap::engine {
+namespace {
+
+constexpr const char* kFooter = R"(Examples:
+  mocap-clean demo                                   clean the built-in library, print scores
+  mocap-clean clean mocap/ -o cleaned/ --method bof  every .bvh below mocap/, same layout out
+  mocap-clean clean a.bvh b.bvh -o out/ --method nlpm --h 0.02 --json
+  mocap-clean import mocap/ -o lib.h5                a whole library into one HDF5 file
+  mocap-clean filter lib.h5 -o clean.h5 --method bof --threads 8
+  mocap-clean export clean.h5 -o cleaned/            back to BVH, same folder layout
+  mocap-clean info clean.h5                          clips, frames, skeletons, provenance
+
+Run `mocap-clean <command> --help` for the options of each command.
+
+Exit status: 0 all clips written; 1 some clips failed (named on stderr), the rest written;
+2 usage error or nothing could be done.
+The filters follow ../shared/spec/filters.md; see README.md for each method and its parameters.)";
+
+}  // namespace
 
 int run_cli(int argc, char** argv) {
-  CLI::App app{"mocap-clean: clean whole motion-capture libraries"};
+  CLI::App app{"mocap-clean " + std::string(kVersion) +
+               ": removes sensor jitter and pops from whole motion-capture libraries\n"
+               "without blurring the motion (bilateral orientation filter, non-local pose means,\n"
+               "and classic linear filters for comparison).",
+               "mocap-clean"};
+  app.footer(kFooter);
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string(kVersion));
+  app.get_formatter()->column_width(34);
+
+  CleanCommand clean;
+  CLI::App* clean_cmd = app.add_subcommand("clean", "filter BVH files or folders into a folder (same layout)");
+  clean_cmd->add_option("SRC", clean.sources, "BVH files or folders (searched recursively)")->required();
+  clean_cmd->add_option("-o,--output", clean.output_dir, "output folder")->required();
+  clean.filter.add_to(*clean_cmd, "bof");
+  clean.run.add_to(*clean_cmd);
+  clean_cmd->footer("Each file keeps its path relative to the folder it was found in. A file that fails\n"
+                    "is named with its error; the others are still written (exit status 1).");
+
+  DemoCommand demo;
+  CLI::App* demo_cmd = app.add_subcommand(
+      "demo", "the main job on the built-in library: procedural clips, known noise, clean, score");
+  demo_cmd->add_option("-o,--output", demo.output_dir, "where the demo writes its folders")->capture_default_str();
+  demo_cmd->add_option("--noise", demo.noise_sigma, "gaussian noise level in rad")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  demo_cmd->add_option("--seed", demo.seed, "noise seed")->capture_default_str();
+  demo.filter.add_to(*demo_cmd, "bof");
+  demo.run.add_to(*demo_cmd);
+
+  ImportCommand import;
+  CLI::App* import_cmd = app.add_subcommand("import", "BVH files or folders into one library file (HDF5)");
+  import_cmd->add_option("SRC", import.sources, "BVH files or folders (searched recursively)")->required();
+  import.output.add_to(*import_cmd);
+  import.run.add_to(*import_cmd);
+  import_cmd->footer("Clips keep their folder layout: mocap/02/02_01.bvh becomes /clips/02/02_01.");
+
+  FilterCommand filter;
+  CLI::App* filter_cmd = app.add_subcommand("filter", "filter every clip of a library into a new library");
+  filter_cmd->add_option("LIB", filter.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  filter.output.add_to(*filter_cmd);
+  filter.filter.add_to(*filter_cmd, "bof");
+  filter.run.add_to(*filter_cmd);
+  filter_cmd->footer("The output has the input's layout (runs chain) and records the method and its\n"
+                     "parameters in /provenance. An interrupted run leaves OUT valid with the clips\n"
+                     "finished so far; --resume completes it.");
+
+  ExportCommand export_;
+  CLI::App* export_cmd = app.add_subcommand("export", "a library's clips back to BVH files (same layout)");
+  export_cmd->add_option("LIB", export_.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  export_cmd->add_option("-o,--output", export_.output_dir, "output folder")->required();
+  export_.run.add_to(*export_cmd);
+
+  NoiseCommand noise;
+  CLI::App* noise_cmd = app.add_subcommand("noise", "add the spec's seeded noise models to a library");
+  noise_cmd->add_option("LIB", noise.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  noise.output.add_to(*noise_cmd);
+  noise_cmd->add_option("--model", noise.model, "gaussian: jitter on every sample; impulse: sparse pops")
+      ->check(CLI::IsMember({"gaussian", "impulse"}))->capture_default_str();
+  noise_cmd->add_option("--sigma", noise.sigma, "gaussian: per-axis standard deviation in rad")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  noise_cmd->add_option("--rate", noise.rate, "impulse: probability per joint-sample")
+      ->check(CLI::Range(0.0, 1.0))->capture_default_str();
+  noise_cmd->add_option("--min-angle", noise.min_angle, "impulse: smallest pop in rad")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  noise_cmd->add_option("--max-angle", noise.max_angle, "impulse: largest pop in rad")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
+  noise_cmd->add_option("--seed", noise.seed, "the same seed and build give the same noise")->capture_default_str();
+  noise.run.add_to(*noise_cmd);
+
+  InfoCommand info;
+  CLI::App* info_cmd = app.add_subcommand("info", "what a library file holds: clips, frames, skeletons, provenance");
+  info_cmd->add_option("LIB", info.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  info_cmd->add_flag("--clips", info.list_clips, "list every clip");
+  info_cmd->add_flag("--json", info.json, "machine-readable output on stdout");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
-  return 0;
+  if (*clean_cmd) return run_clean(clean);
+  if (*demo_cmd) return run_demo(demo);
+  if (*import_cmd) return run_import(import);
+  if (*filter_cmd) return run_filter(filter);
+  if (*export_cmd) return run_export(export_);
+  if (*noise_cmd) {
+    if (noise.min_angle > noise.max_angle) {
+      fmt::print(stderr, "mocap-clean: noise: --min-angle must not exceed --max-angle\n");
+      return 2;
+    }
+    return run_noise(noise);
+  }
+  if (*info_cmd) return run_info(info);
+  return 2;
 }
 
 }  // namespace mocap::engine

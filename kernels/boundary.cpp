@@ -70,4 +70,38 @@ void extend_translation_curve(TranslationView translations, int joint, int reach
     out[i] = extended_translation(translations, joint, i - reach, boundary);
 }
 
+void extend_rotation_curve(std::span<const Quat> curve, int reach, Boundary boundary,
+                           std::vector<Quat>& out) {
+  const int frames = int(curve.size());
+  out.resize(curve.size() + 2 * std::size_t(reach));
+  for (long i = 0; i < long(out.size()); ++i) {
+    const long t = i - reach;
+    if (boundary != Boundary::extrapolate || (t >= 0 && t < frames) || frames < 2) {
+      out[i] = curve[reflect_index(t, frames, boundary)];
+    } else if (t < 0) {
+      out[i] = curve[0] * exp(double(t) * log(inverse(curve[0]) * curve[1]));
+    } else {
+      const Quat qa = curve[frames - 2], qb = curve[frames - 1];
+      out[i] = qb * exp(double(t - frames + 1) * log(inverse(qa) * qb));
+    }
+  }
+}
+
+void extend_translation_curve(std::span<const Vec3> curve, int reach, Boundary boundary,
+                              std::vector<Vec3>& out) {
+  const int frames = int(curve.size());
+  out.resize(curve.size() + 2 * std::size_t(reach));
+  for (long i = 0; i < long(out.size()); ++i) {
+    const long t = i - reach;
+    if (boundary != Boundary::extrapolate || (t >= 0 && t < frames) || frames < 2) {
+      out[i] = curve[reflect_index(t, frames, boundary)];
+    } else if (t < 0) {
+      out[i] = curve[0] + double(t) * (curve[1] - curve[0]);
+    } else {
+      const Vec3 pa = curve[frames - 2], pb = curve[frames - 1];
+      out[i] = pb + double(t - frames + 1) * (pb - pa);
+    }
+  }
+}
+
 }  // namespace mocap

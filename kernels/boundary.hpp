@@ -2,6 +2,7 @@
 // Boundary extension of ../shared/spec/filters.md, "Boundary extension": the samples a filter
 // reads outside [0, F). Modes are named by behaviour.
 #include <optional>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -32,5 +33,12 @@ void extend_rotation_curve(RotationView rotations, int joint, int reach, Boundar
                            std::vector<Quat>& out);
 void extend_translation_curve(TranslationView translations, int joint, int reach,
                               Boundary boundary, std::vector<Vec3>& out);
+
+// The same for a curve already held in double (one joint, F samples), e.g. the output of a
+// filter's previous pass, which must not be rounded to float between passes.
+void extend_rotation_curve(std::span<const Quat> curve, int reach, Boundary boundary,
+                           std::vector<Quat>& out);
+void extend_translation_curve(std::span<const Vec3> curve, int reach, Boundary boundary,
+                              std::vector<Vec3>& out);
 
 }  // namespace mocap

@@ -1,0 +1,271 @@
+// The library commands: import (BVH -> library), filter (library -> library), export
+// (library -> BVH), noise (library -> noisy library) and info.
+#include <fmt/core.h>
+
+#include <set>
+
+#include "engine/commands.hpp"
+#include "engine/job.hpp"
+#include "engine/version.hpp"
+#include "io/compression.hpp"
+#include "kernels/noise_model.hpp"
+
+namespace mocap::engine {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+int usage_error(const std::string& command, const std::string& message) {
+  fmt::print(stderr, "mocap-clean: {}: {}\n", command, message);
+  return 2;
+}
+
+// Opens the crash-safe output of a library command, or explains why not.
+std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, std::string* error) {
+  const auto compression = io::parse_compression(out.compression);
+  if (!compression) {
+    *error = "unknown compression '" + out.compression + "'";
+    return nullptr;
+  }
+  if (std::string why = io::compression_unavailable_reason(*compression); !why.empty()) {
+    *error = why;
+    return nullptr;
+  }
+  PartedOutputOptions options;
+  options.output = out.path;
+  options.compression = *compression;
+  options.resume = out.resume;
+  options.clips_per_part = out.clips_per_part;
+  auto parted = PartedOutput::open(options, error);
+  if (!parted) return nullptr;
+  auto sink = std::make_unique<LibrarySink>(std::move(parted));
+  sink->compression = *compression;
+  return sink;
+}
+
+// The source indices whose clip paths the output does not hold yet.
+std::vector<std::size_t> pending(const ClipSource& source, const PartedOutput& output,
+                                 std::size_t* skipped) {
+  std::vector<std::size_t> todo;
+  for (std::size_t i = 0; i < source.count(); ++i)
+    if (!output.done().count(source.clip_path(i))) todo.push_back(i);
+  *skipped = source.count() - todo.size();
+  return todo;
+}
+
+// Runs `job` into the library sink, joins the parts, reports. Shared by import, filter, noise.
+int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, io::Provenance provenance,
+                     const std::string& command) {
+  std::size_t skipped = 0;
+  job.selection = pending(*job.source, sink.output(), &skipped);
+  if (job.selection.empty() && job.source->count() > 0 && skipped == 0)
+    return usage_error(command, "nothing to do");
+  if (skipped > 0 && !job.run.json)
+    fmt::print(stderr, "{}: resuming: {} clips already done, {} to go\n", command, skipped,
+               job.selection.size());
+  RunSummary summary = job.selection.empty() ? RunSummary{} : run_job(job);
+  summary.command = command;
+  summary.extra["output"] = out.path;
+  summary.extra["resumed_clips"] = skipped;
+  summary.extra["compression"] = out.compression;
+  std::string error;
+  if (summary.interrupted) {
+    if (!sink.output().commit(&error)) summary.failed.push_back({out.path, error});
+    fmt::print(stderr,
+               "{}: interrupted: {} holds the clips finished so far; run the same command with "
+               "--resume to complete it\n",
+               command, out.path);
+  } else if (!sink.output().finish(provenance, &error)) {
+    summary.failed.push_back({out.path, error});
+    report(summary, job.run.json);
+    return 2;
+  }
+  report(summary, job.run.json);
+  return summary.exit_status();
+}
+
+io::Provenance make_provenance(const std::string& method, const nlohmann::json& parameters,
+                               const std::string& input) {
+  return {method, parameters.dump(), std::string("mocap-clean ") + kVersion, input, ""};
+}
+
+}  // namespace
+
+void LibraryOutput::add_to(CLI::App& cmd) {
+  cmd.add_option("-o,--output", path, "the library file to write (HDF5)")->required();
+  cmd.add_option("--compression", compression,
+                 "chunk compression: lz4 (fast, needs the HDF5 LZ4 plugin to read), deflate "
+                 "(smaller, slow to write), none")
+      ->check(CLI::IsMember({"none", "lz4", "deflate"}))
+      ->capture_default_str();
+  cmd.add_flag("--resume", resume, "complete an interrupted run: keep the clips it finished");
+  cmd.add_option("--clips-per-part", clips_per_part, "clips per committed part file")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Engine");
+}
+
+int run_import(const ImportCommand& command) {
+  const SourceList sources = collect_bvh_sources(command.sources);
+  for (const auto& e : sources.errors) fmt::print(stderr, "mocap-clean: import: {}\n", e);
+  if (!sources.errors.empty()) return 2;
+  if (sources.files.empty()) return usage_error("import", "no .bvh files found in the given sources");
+  std::string error;
+  auto sink = open_library_sink(command.output, &error);
+  if (!sink) return usage_error("import", error);
+  BvhSource source(sources.files);
+  Job job;
+  job.label = "import";
+  job.source = &source;
+  job.sink = sink.get();
+  job.run = command.run;
+  std::string inputs;
+  for (const auto& s : command.sources) inputs += (inputs.empty() ? "" : " ") + s;
+  return run_into_library(job, *sink, command.output, make_provenance("import", nlohmann::json::object(), inputs),
+                          "import");
+}
+
+int run_filter(const FilterCommand& command) {
+  const FilterSettings settings = command.filter.settings();
+  if (const Status s = settings.validate(); !s.ok()) return usage_error("filter", s.message());
+  std::string error;
+  auto source = LibrarySource::open(command.input, &error);
+  if (!source) return usage_error("filter", error);
+  auto sink = open_library_sink(command.output, &error);
+  if (!sink) return usage_error("filter", error);
+  Job job;
+  job.label = "filter";
+  job.source = source.get();
+  job.sink = sink.get();
+  job.filter = settings;
+  job.run = command.run;
+  return run_into_library(job, *sink, command.output,
+                          make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input),
+                          "filter");
+}
+
+int run_export(const ExportCommand& command) {
+  std::string error;
+  auto source = LibrarySource::open(command.input, &error);
+  if (!source) return usage_error("export", error);
+  BvhFolderSink sink(command.output_dir);
+  Job job;
+  job.label = "export";
+  job.source = source.get();
+  job.sink = &sink;
+  job.run = command.run;
+  const RunSummary summary = run_job(job);
+  report(summary, command.run.json);
+  return summary.exit_status();
+}
+
+namespace {
+
+// A seed per clip from the run's seed and the clip's path: the noise of a clip does not depend
+// on which other clips run, in which order, or on how many threads (splitmix64 of FNV-1a).
+std::uint64_t clip_seed(std::uint64_t seed, const std::string& clip_path) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : clip_path) h = (h ^ c) * 1099511628211ull;
+  std::uint64_t z = seed + h + 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+}  // namespace
+
+int run_noise(const NoiseCommand& command) {
+  std::string error;
+  auto source = LibrarySource::open(command.input, &error);
+  if (!source) return usage_error("noise", error);
+  auto sink = open_library_sink(command.output, &error);
+  if (!sink) return usage_error("noise", error);
+  Job job;
+  job.label = "noise";
+  job.source = source.get();
+  job.sink = sink.get();
+  job.run = command.run;
+  const ClipSource* src = source.get();
+  job.transform = [&command, src](io::Clip& clip, std::size_t index) -> Status {
+    const std::uint64_t seed = clip_seed(command.seed, src->clip_path(index));
+    if (command.model == "gaussian") {
+      add_noise(GaussianNoise{command.sigma, seed}, clip.rotation_span());
+    } else {
+      add_noise(ImpulseNoise{command.rate, command.min_angle, command.max_angle, seed}, clip.rotation_span());
+    }
+    return {};
+  };
+  nlohmann::json parameters = {{"model", command.model}, {"seed", command.seed}};
+  if (command.model == "gaussian") {
+    parameters["sigma"] = command.sigma;
+  } else {
+    parameters["rate"] = command.rate;
+    parameters["min_angle"] = command.min_angle;
+    parameters["max_angle"] = command.max_angle;
+  }
+  return run_into_library(job, *sink, command.output, make_provenance("noise", parameters, command.input),
+                          "noise");
+}
+
+int run_info(const InfoCommand& command) {
+  std::string error;
+  auto source = LibrarySource::open(command.input, &error);
+  if (!source) return usage_error("info", error);
+  const io::LibraryReader& reader = source->reader();
+  std::size_t frames = 0, joint_frames = 0;
+  std::map<std::string, std::pair<int, int>> skeletons;  // name -> (joints, clips)
+  nlohmann::json clips = nlohmann::json::array(), unreadable = nlohmann::json::array();
+  for (const auto& h : reader.clips()) {
+    if (!h.error.empty()) {
+      unreadable.push_back({{"clip", h.path}, {"error", h.error}});
+      continue;
+    }
+    frames += std::size_t(h.frames);
+    joint_frames += std::size_t(h.frames) * std::size_t(h.joints);
+    auto& s = skeletons[h.skeleton];
+    s.first = h.joints;
+    ++s.second;
+    clips.push_back({{"path", h.path}, {"frames", h.frames}, {"joints", h.joints},
+                     {"frame_time", h.frame_time}, {"skeleton", h.skeleton}, {"source", h.source}});
+  }
+  nlohmann::json j;
+  j["file"] = command.input;
+  j["clips"] = reader.clips().size() - unreadable.size();
+  j["frames"] = frames;
+  j["joint_frames"] = joint_frames;
+  nlohmann::json sk = nlohmann::json::array();
+  for (const auto& [name, s] : skeletons) sk.push_back({{"name", name}, {"joints", s.first}, {"clips", s.second}});
+  j["skeletons"] = sk;
+  if (const auto p = reader.provenance()) {
+    j["provenance"] = {{"method", p->method}, {"parameters", nlohmann::json::parse(p->parameters_json, nullptr, false)},
+                       {"engine_version", p->engine_version}, {"input_file", p->input_file},
+                       {"created", p->created}};
+  }
+  j["unreadable"] = unreadable;
+  if (command.list_clips) j["clip_list"] = clips;
+  if (command.json) {
+    fmt::print("{}\n", j.dump());
+    return unreadable.empty() ? 0 : 1;
+  }
+  fmt::print("{}: {} clips, {} frames, {} joint-frames\n", command.input, j["clips"].get<std::size_t>(),
+             frames, joint_frames);
+  for (const auto& s : sk)
+    fmt::print("  skeleton {}: {} joints, {} clips\n", s["name"].get<std::string>(), s["joints"].get<int>(),
+               s["clips"].get<int>());
+  if (j.contains("provenance")) {
+    const auto& p = j["provenance"];
+    fmt::print("  provenance: {} {} from {} ({}, {})\n", p["method"].get<std::string>(), p["parameters"].dump(),
+               p["input_file"].get<std::string>(), p["engine_version"].get<std::string>(),
+               p["created"].get<std::string>());
+  }
+  if (command.list_clips)
+    for (const auto& c : clips)
+      fmt::print("  {}  {} frames x {} joints  {:.6g} s/frame\n", c["path"].get<std::string>(),
+                 c["frames"].get<int>(), c["joints"].get<int>(), c["frame_time"].get<double>());
+  for (const auto& u : unreadable)
+    fmt::print(stderr, "mocap-clean: info: {}: {}\n", u["clip"].get<std::string>(), u["error"].get<std::string>());
+  return unreadable.empty() ? 0 : 1;
+}
+
+}  // namespace mocap::engine

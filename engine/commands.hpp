@@ -1,0 +1,84 @@
+#pragma once
+// The subcommands of mocap-clean, each a function of its parsed options.
+#include <string>
+#include <vector>
+
+#include "engine/filter_options.hpp"
+#include "engine/run_summary.hpp"
+#include "engine/sources.hpp"
+
+namespace mocap::engine {
+
+struct CleanCommand {
+  std::vector<std::string> sources;
+  std::string output_dir;
+  FilterOptions filter;
+  RunOptions run;
+};
+int run_clean(const CleanCommand& command);
+
+// BVH files in, filtered BVH files out (same relative layout): the engine behind `clean`.
+RunSummary clean_files(const std::vector<SourceFile>& files, const std::string& output_dir,
+                       const FilterSettings& settings, const RunOptions& run);
+
+struct DemoCommand {
+  std::string output_dir = "mocap-clean-demo";
+  FilterOptions filter;
+  RunOptions run;
+  double noise_sigma = 0.03;
+  unsigned long long seed = 1;
+};
+int run_demo(const DemoCommand& command);
+
+// The output of the library commands (import, filter, noise).
+struct LibraryOutput {
+  std::string path;
+  std::string compression = "lz4";
+  bool resume = false;
+  int clips_per_part = 256;
+  void add_to(CLI::App& command);
+};
+
+struct ImportCommand {
+  std::vector<std::string> sources;
+  LibraryOutput output;
+  RunOptions run;
+};
+int run_import(const ImportCommand& command);
+
+struct FilterCommand {
+  std::string input;
+  LibraryOutput output;
+  FilterOptions filter;
+  RunOptions run;
+};
+int run_filter(const FilterCommand& command);
+
+struct ExportCommand {
+  std::string input;
+  std::string output_dir;
+  RunOptions run;
+};
+int run_export(const ExportCommand& command);
+
+struct NoiseCommand {
+  std::string input;
+  LibraryOutput output;
+  std::string model = "gaussian";
+  double sigma = 0.03, rate = 0.01, min_angle = 0.3, max_angle = 1.0;
+  unsigned long long seed = 1;
+  RunOptions run;
+};
+int run_noise(const NoiseCommand& command);
+
+struct InfoCommand {
+  std::string input;
+  bool json = false;
+  bool list_clips = false;
+};
+int run_info(const InfoCommand& command);
+
+// Prints the summary as JSON (stdout) or as a human line (stderr), and the failures (stderr).
+void report(const RunSummary& summary, bool json);
+
+}  // namespace mocap::engine

@@ -1,0 +1,90 @@
+#include "engine/filter_options.hpp"
+
+#include <limits>
+
+namespace mocap::engine {
+
+void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
+  method = default_method;
+  cmd.add_option("--method,-m", method,
+                 "bof: bilateral orientation filter (Courty 2008): smooths jitter, keeps edges\n"
+                 "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses\n"
+                 "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)\n"
+                 "none: copy (checks the round trip)")
+      ->check(CLI::IsMember({"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean"}))
+      ->capture_default_str()
+      ->group("Filter");
+  cmd.add_option("--sigma-t", sigma_t, "bof, gaussian: temporal width in frames")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--window,-k", window, "bof, gaussian: half-width k in frames (0 = ceil(3 sigma_t))")
+      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--sigma-g", sigma_g, "bof: range width in radians (full rotation angle)")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--iterations", iterations, "bof: how many times the filter runs on its own output")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--kernel", kernel, "bof: gaussian, or paper (Courty's printed kernel, for comparison)")
+      ->check(CLI::IsMember({"gaussian", "paper"}))->capture_default_str()->group("Filter");
+  cmd.add_option("--sigma-p", sigma_p,
+                 "bof: range width for translations in the file's length unit (0 = none: Gaussian)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--search-radius,-K", search_radius, "nlpm: search window K (2K+1 poses)")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--patch-radius,-P", patch_radius, "nlpm: patch radius P (2P+1 poses)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--h", h, "nlpm: strength in radians (0 = automatic, from the estimated noise)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--space", space, "nlpm: tangent (default), or log (the paper, literally)")
+      ->check(CLI::IsMember({"tangent", "log"}))->capture_default_str()->group("Filter");
+  cmd.add_option("--order", order, "butterworth: filter order n")
+      ->check(CLI::Range(1, 8))->capture_default_str()->group("Filter");
+  cmd.add_option("--cutoff", cutoff, "butterworth: single-pass -3 dB cut-off in Hz")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--passes", passes, "moving-mean: passes of Blender's Smooth Keys mask")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+  cmd.add_option("--boundary", boundary, "samples beyond the clip's ends: mirror, hold, extrapolate")
+      ->check(CLI::IsMember({"mirror", "hold", "extrapolate"}))->capture_default_str()->group("Filter");
+  cmd.add_option("--translations", translations, "filter the position channels too, or keep them")
+      ->check(CLI::IsMember({"filter", "keep"}))->capture_default_str()->group("Filter");
+  cmd.add_option("--shard-joints", shard_joints, "joints per task (per-joint methods)")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Engine");
+  cmd.add_option("--shard-frames", shard_frames, "frames per task (nlpm)")
+      ->check(CLI::PositiveNumber)->capture_default_str()->group("Engine");
+}
+
+FilterSettings FilterOptions::settings() const {
+  FilterSettings s;
+  s.method = parse_method(method).value_or(Method::none);
+  const Boundary b = parse_boundary(boundary).value_or(Boundary::mirror);
+  s.bilateral.sigma_t = sigma_t;
+  s.bilateral.sigma_g = sigma_g;
+  s.bilateral.window = window;
+  s.bilateral.iterations = iterations;
+  s.bilateral.kernel = kernel == "paper" ? BilateralKernel::paper : BilateralKernel::gaussian;
+  s.bilateral.boundary = b;
+  s.bilateral.sigma_p = sigma_p > 0 ? sigma_p : std::numeric_limits<double>::infinity();
+  s.linear.sigma_t = sigma_t;
+  s.linear.window = window;
+  s.linear.order = order;
+  s.linear.cutoff = cutoff;
+  s.linear.passes = passes;
+  s.linear.boundary = b;
+  s.nlpm.search_radius = search_radius;
+  s.nlpm.patch_radius = patch_radius;
+  s.nlpm.h = h;
+  s.nlpm.space = space == "log" ? NlpmSpace::log : NlpmSpace::tangent;
+  s.nlpm.boundary = b;
+  s.filter_translations = translations == "filter";
+  s.shard_joints = shard_joints;
+  s.shard_frames = shard_frames;
+  return s;
+}
+
+void RunOptions::add_to(CLI::App& cmd) {
+  cmd.add_option("--threads,-j", threads, "worker threads (0 = all cores); output is identical for any count")
+      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Engine");
+  cmd.add_flag("--json", json, "print a machine-readable summary on stdout")->group("Engine");
+  cmd.add_flag("!--no-progress", progress, "no progress bar (it is shown only on a terminal anyway)")
+      ->group("Engine");
+}
+
+}  // namespace mocap::engine

@@ -1,0 +1,32 @@
+#pragma once
+// The filter parameters of the spec as command-line options, shared by clean, filter and eval.
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "engine/filter_settings.hpp"
+
+namespace mocap::engine {
+
+struct FilterOptions {
+  std::string method = "none";
+  std::string kernel = "gaussian", boundary = "mirror", space = "tangent", translations = "filter";
+  double sigma_t = 1.0, sigma_g = 0.2, h = 0, cutoff = 6.0, sigma_p = 0;
+  int window = 0, iterations = 5, search_radius = 10, patch_radius = 5, order = 2, passes = 5;
+  int shard_joints = 8, shard_frames = 256;
+
+  // Registers the options on `command`; `default_method` is shown in --help.
+  void add_to(CLI::App& command, const std::string& default_method);
+  // The settings the options describe (valid names are enforced by CLI11 already).
+  FilterSettings settings() const;
+};
+
+// Common options of every command that runs the engine.
+struct RunOptions {
+  int threads = 0;  // 0 = all cores
+  bool json = false;
+  bool progress = true;
+
+  void add_to(CLI::App& command);
+};
+
+}  // namespace mocap::engine

@@ -1,0 +1,176 @@
+#include "engine/filter_settings.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "engine/pipeline.hpp"
+#include "kernels/noise_estimate.hpp"
+
+namespace mocap::engine {
+
+std::optional<Method> parse_method(std::string_view name) {
+  if (name == "none") return Method::none;
+  if (name == "bof") return Method::bof;
+  if (name == "nlpm") return Method::nlpm;
+  if (name == "gaussian") return Method::gaussian;
+  if (name == "butterworth") return Method::butterworth;
+  if (name == "moving-mean") return Method::moving_mean;
+  return std::nullopt;
+}
+
+std::string_view to_string(Method method) {
+  switch (method) {
+    case Method::none: return "none";
+    case Method::bof: return "bof";
+    case Method::nlpm: return "nlpm";
+    case Method::gaussian: return "gaussian";
+    case Method::butterworth: return "butterworth";
+    case Method::moving_mean: return "moving-mean";
+  }
+  return "?";
+}
+
+namespace {
+
+LinearKind linear_kind(Method method) {
+  if (method == Method::butterworth) return LinearKind::butterworth;
+  if (method == Method::moving_mean) return LinearKind::moving_mean;
+  return LinearKind::gaussian;
+}
+
+}  // namespace
+
+Status FilterSettings::validate() const {
+  if (shard_joints < 1) return Status::error("shard joints must be >= 1");
+  if (shard_frames < 1) return Status::error("shard frames must be >= 1");
+  switch (method) {
+    case Method::none: return {};
+    case Method::bof: return bilateral.validate();
+    case Method::nlpm: {
+      NlpmParams p = nlpm;
+      if (p.h == 0) p.h = 1;  // automatic: checked per clip
+      return p.validate();
+    }
+    default: {
+      LinearParams p = linear;
+      p.kind = linear_kind(method);
+      return p.validate();
+    }
+  }
+}
+
+nlohmann::json FilterSettings::to_json() const {
+  nlohmann::json j;
+  j["method"] = std::string(to_string(method));
+  j["translations"] = filter_translations ? "filter" : "keep";
+  switch (method) {
+    case Method::none: break;
+    case Method::bof:
+      j["sigma_t"] = bilateral.sigma_t;
+      j["sigma_g"] = bilateral.sigma_g;
+      j["window"] = bilateral.window;
+      j["iterations"] = bilateral.iterations;
+      j["kernel"] = bilateral.kernel == BilateralKernel::paper ? "paper" : "gaussian";
+      j["boundary"] = std::string(to_string(bilateral.boundary));
+      if (std::isfinite(bilateral.sigma_p)) j["sigma_p"] = bilateral.sigma_p;
+      break;
+    case Method::nlpm:
+      j["search_radius"] = nlpm.search_radius;
+      j["patch_radius"] = nlpm.patch_radius;
+      j["h"] = nlpm.h == 0 ? nlohmann::json("auto") : nlohmann::json(nlpm.h);
+      j["space"] = nlpm.space == NlpmSpace::log ? "log" : "tangent";
+      j["boundary"] = std::string(to_string(nlpm.boundary));
+      break;
+    case Method::gaussian:
+      j["sigma_t"] = linear.sigma_t;
+      j["window"] = linear.window;
+      j["boundary"] = std::string(to_string(linear.boundary));
+      break;
+    case Method::butterworth:
+      j["order"] = linear.order;
+      j["cutoff"] = linear.cutoff;
+      j["boundary"] = std::string(to_string(linear.boundary));
+      break;
+    case Method::moving_mean:
+      j["passes"] = linear.passes;
+      j["boundary"] = std::string(to_string(linear.boundary));
+      break;
+  }
+  return j;
+}
+
+ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip) {
+  ResolvedSettings r{settings};
+  r.settings.linear.kind = linear_kind(settings.method);
+  if (settings.method == Method::none || clip.frames < 2) {
+    r.unchanged = true;
+    return r;
+  }
+  if (settings.method == Method::nlpm && settings.nlpm.h == 0) {
+    const NoiseEstimate noise = estimate_noise(clip.rotation_view());
+    r.noise_sigma = noise.sigma;
+    if (noise.moving_joints == 0 || noise.sigma <= 0) {
+      r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
+      return r;
+    }
+    r.settings.nlpm.h = kNlpmAutoFactor * noise.sigma;
+  }
+  return r;
+}
+
+std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int joints) {
+  std::vector<Shard> shards;
+  if (settings.method == Method::nlpm) {
+    for (int f = 0; f < frames; f += settings.shard_frames)
+      shards.push_back({0, joints, f, std::min(frames, f + settings.shard_frames)});
+  } else {
+    for (int j = 0; j < joints; j += settings.shard_joints)
+      shards.push_back({j, std::min(joints, j + settings.shard_joints), 0, frames});
+  }
+  if (shards.empty()) shards.push_back({0, joints, 0, frames});
+  return shards;
+}
+
+Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Clip& output,
+                 const Shard& shard) {
+  const FilterSettings& s = resolved.settings;
+  const int J = input.joints();
+  if (resolved.unchanged) {
+    // Copy the slice as it came.
+    for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
+      const std::size_t row = std::size_t(t) * J;
+      std::memcpy(output.rotations.data() + (row + shard.joint_begin) * 4,
+                  input.rotations.data() + (row + shard.joint_begin) * 4,
+                  sizeof(float) * 4 * (shard.joint_end - shard.joint_begin));
+      std::memcpy(output.translations.data() + (row + shard.joint_begin) * 3,
+                  input.translations.data() + (row + shard.joint_begin) * 3,
+                  sizeof(float) * 3 * (shard.joint_end - shard.joint_begin));
+    }
+    return {};
+  }
+  std::vector<std::uint8_t> translated(J, 0);
+  for (int j = 0; j < J; ++j) translated[j] = input.skeleton->has_translation(j) ? 1 : 0;
+
+  MotionIO io;
+  io.frame_time = input.frame_time;
+  io.rotations = input.rotation_view();
+  io.filtered_rotations = output.rotation_span();
+  io.translations = input.translation_view();
+  io.filtered_translations = output.translation_span();
+  io.translated_joints = translated;
+  if (!s.filter_translations) std::fill(translated.begin(), translated.end(), 0);
+  io.joint_begin = shard.joint_begin;
+  io.joint_end = shard.joint_end;
+  io.frame_begin = shard.frame_begin;
+  io.frame_end = shard.frame_end;
+
+  switch (s.method) {
+    case Method::bof: return BilateralJob{s.bilateral, io}.run();
+    case Method::nlpm: return NlpmJob{s.nlpm, io, {}}.run();
+    case Method::none: return {};
+    default: return LinearFilterJob{s.linear, io}.run();
+  }
+}
+
+}  // namespace mocap::engine

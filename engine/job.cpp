@@ -1,0 +1,105 @@
+#include "engine/job.hpp"
+
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <numeric>
+#include <optional>
+
+#include "engine/interrupt.hpp"
+#include "engine/pipeline.hpp"
+#include "engine/progress.hpp"
+
+namespace mocap::engine {
+namespace {
+
+// What the stages keep per clip.
+struct ClipState {
+  ResolvedSettings resolved;
+  std::any prepared;  // the sink's form of the finished clip
+};
+
+}  // namespace
+
+RunSummary run_job(const Job& job) {
+  const auto start = std::chrono::steady_clock::now();
+  RunSummary summary;
+  summary.command = job.label;
+
+  std::vector<std::size_t> selection = job.selection;
+  if (selection.empty() && job.source->count() > 0) {
+    selection.resize(job.source->count());
+    std::iota(selection.begin(), selection.end(), std::size_t(0));
+  }
+
+  std::optional<tbb::global_control> limit;
+  if (job.run.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, job.run.threads);
+  summary.threads = int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+
+  Progress progress(job.label, selection.size(),
+                    job.run.progress && !job.run.json && Progress::stderr_is_terminal());
+  const FilterSettings& settings = job.filter;
+  PipelineStages stages;
+  stages.count = selection.size();
+  stages.read = [&](WorkItem& item) {
+    const std::size_t index = selection[item.index];
+    item.name = job.source->name(index);
+    std::string error;
+    std::optional<io::Clip> clip = job.source->read(index, &error);
+    if (!clip) return item.fail(error);
+    item.input = std::move(*clip);
+  };
+  stages.split = [&](WorkItem& item) -> std::vector<Shard> {
+    ClipState state{resolve_for_clip(settings, item.input), {}};
+    item.context = std::move(state);
+    if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
+      item.output = std::move(item.input);
+      item.input = {};
+      return {};
+    }
+    item.output = item.input;  // skeleton, frame time, source; the shards overwrite the tensors
+    return plan_shards(settings, item.input.frames, item.input.joints());
+  };
+  stages.process = [&](WorkItem& item, const Shard& shard) {
+    const auto& state = std::any_cast<const ClipState&>(item.context);
+    if (const Status s = run_shard(state.resolved, item.input, item.output, shard); !s.ok())
+      item.fail(s.message());
+  };
+  stages.finish = [&](WorkItem& item) {
+    item.input = {};  // free the input early: only the output goes on
+    if (job.transform) {
+      if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
+        return item.fail(s.message());
+    }
+    std::string error;
+    if (!job.sink->prepare(item.output, std::any_cast<ClipState&>(item.context).prepared, &error))
+      item.fail(error);
+  };
+  stages.write = [&](WorkItem& item) {
+    const std::size_t index = selection[item.index];
+    if (item.error.empty()) {
+      std::string error;
+      auto& state = std::any_cast<ClipState&>(item.context);
+      if (!job.sink->write(job.source->clip_path(index), job.source->relative_path(index), state.prepared,
+                            &error))
+        item.fail(error);
+    }
+    if (item.error.empty()) {
+      summary.add_clip(std::size_t(item.output.frames), std::size_t(item.output.joints()));
+    } else {
+      summary.failed.push_back({item.name, item.error});
+    }
+    progress.advance(std::size_t(item.output.frames), !item.error.empty());
+    item.output = {};
+    item.context.reset();
+  };
+  PipelineOptions options;
+  options.cancel = &install_interrupt_handler();
+  const std::size_t read = run_pipeline(stages, options);
+  progress.finish();
+  summary.interrupted = read < selection.size();
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace mocap::engine

@@ -1,0 +1,134 @@
+#include "engine/parted_output.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <charconv>
+
+#include "io/library_join.hpp"
+#include "io/library_reader.hpp"
+
+namespace mocap::engine {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+bool fail(std::string* error, std::string message) {
+  if (error) *error = std::move(message);
+  return false;
+}
+
+bool is_committed_part(const fs::path& p) {
+  const std::string name = p.filename().string();
+  return name.starts_with("part-") && p.extension() == ".h5";
+}
+
+// The sequence number of "part-<tag>-<n>.h5" for this tag, or -1.
+int part_number(const fs::path& p, const std::string& tag) {
+  const std::string stem = p.stem().string(), prefix = "part-" + tag + "-";
+  if (!stem.starts_with(prefix)) return -1;
+  int n = -1;
+  const char* begin = stem.data() + prefix.size();
+  const auto [end, ec] = std::from_chars(begin, stem.data() + stem.size(), n);
+  return ec == std::errc() && end == stem.data() + stem.size() ? n : -1;
+}
+
+}  // namespace
+
+fs::path PartedOutput::parts_dir() const {
+  return fs::path(options_.output.string() + ".parts");
+}
+
+std::unique_ptr<PartedOutput> PartedOutput::open(const PartedOutputOptions& options,
+                                                 std::string* error) {
+  std::unique_ptr<PartedOutput> out(new PartedOutput(options));
+  out->options_.output = fs::absolute(options.output);
+  const fs::path dir = out->parts_dir();
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !options.resume) {
+    fail(error, fmt::format("{} holds the parts of an unfinished run: add --resume to complete it, "
+                            "or delete the folder to start again", dir.string()));
+    return nullptr;
+  }
+  fs::create_directories(dir, ec);
+  if (ec) {
+    fail(error, fmt::format("cannot create {}: {}", dir.string(), ec.message()));
+    return nullptr;
+  }
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const fs::path& p = entry.path();
+    if (p.extension() == ".tmp") {
+      fs::remove(p, ec);  // a part that was being written when the run died
+      continue;
+    }
+    if (!is_committed_part(p)) continue;
+    out->next_part_ = std::max(out->next_part_, part_number(p, options.tag) + 1);
+    auto reader = io::LibraryReader::open(p, error);
+    if (!reader) return nullptr;
+    for (const auto& clip : reader->clips())
+      if (clip.error.empty()) out->done_.insert(clip.path);
+  }
+  return out;
+}
+
+std::vector<fs::path> PartedOutput::committed_parts() const {
+  std::vector<fs::path> parts;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(parts_dir(), ec))
+    if (is_committed_part(entry.path())) parts.push_back(entry.path());
+  std::sort(parts.begin(), parts.end());
+  return parts;
+}
+
+bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip, std::string* error) {
+  if (!current_) {
+    current_path_ = parts_dir() / fmt::format("part-{}-{:06d}.h5", options_.tag, next_part_++);
+    const fs::path tmp = current_path_.string() + ".tmp";
+    current_ = io::LibraryWriter::create(tmp, options_.compression, error);
+    if (!current_) return false;
+    clips_in_current_ = 0;
+    opened_at_ = std::chrono::steady_clock::now();
+  }
+  if (!current_->write_encoded(clip_path, clip, error)) return false;
+  done_.insert(clip_path);
+  ++clips_in_current_;
+  const double age = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_at_).count();
+  if (clips_in_current_ >= options_.clips_per_part || age >= options_.seconds_per_part)
+    return commit(error);
+  return true;
+}
+
+bool PartedOutput::commit(std::string* error) {
+  if (!current_) return true;
+  const fs::path tmp = current_->path();
+  const bool closed = current_->close(error);
+  current_.reset();
+  if (!closed) return false;
+  std::error_code ec;
+  fs::rename(tmp, current_path_, ec);
+  if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  return !options_.keep_master_current || refresh_master(error);
+}
+
+bool PartedOutput::refresh_master(std::string* error) {
+  const fs::path tmp = options_.output.string() + ".tmp";
+  if (!io::link_libraries(committed_parts(), tmp, error)) return false;
+  std::error_code ec;
+  fs::rename(tmp, options_.output, ec);
+  if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  return true;
+}
+
+bool PartedOutput::finish(const io::Provenance& provenance, std::string* error) {
+  if (!commit(error)) return false;
+  const fs::path tmp = options_.output.string() + ".tmp";
+  if (!io::join_libraries(committed_parts(), tmp, provenance, error)) return false;
+  std::error_code ec;
+  fs::rename(tmp, options_.output, ec);
+  if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  fs::remove_all(parts_dir(), ec);
+  return true;
+}
+
+}  // namespace mocap::engine

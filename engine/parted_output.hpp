@@ -1,0 +1,61 @@
+#pragma once
+// Crash-safe library output. Clips go into part files in OUT.parts/, each written as
+// part-<tag>-<n>.h5.tmp and renamed into place once closed, so a committed part is always whole.
+// After each commit OUT itself is rewritten (copy, append, rename) as a small library of external
+// links into the committed parts: whatever kills the run, OUT is valid HDF5 holding only
+// complete clips. finish() joins the parts into one self-contained OUT and removes OUT.parts.
+// --resume reopens OUT.parts and skips the clips its committed parts hold.
+#include <chrono>
+#include <filesystem>
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "io/clip_encoder.hpp"
+#include "io/compression.hpp"
+#include "io/library_format.hpp"
+#include "io/library_writer.hpp"
+
+namespace mocap::engine {
+
+struct PartedOutputOptions {
+  std::filesystem::path output;
+  io::Compression compression = io::Compression::lz4;
+  bool resume = false;
+  std::string tag = "p";              // distinguishes writers sharing OUT.parts (ranks, shards)
+  int clips_per_part = 256;
+  double seconds_per_part = 5.0;       // a part is committed at least this often
+  bool keep_master_current = true;     // rewrite OUT's links after each commit
+};
+
+class PartedOutput {
+ public:
+  static std::unique_ptr<PartedOutput> open(const PartedOutputOptions& options, std::string* error);
+
+  std::filesystem::path parts_dir() const;
+  // Clips held by committed parts (what --resume skips).
+  const std::set<std::string>& done() const { return done_; }
+
+  bool add(const std::string& clip_path, const io::EncodedClip& clip, std::string* error);
+  bool commit(std::string* error);  // closes the open part and renames it into place
+  // Commits, joins every committed part into OUT (through OUT.tmp and a rename) and removes
+  // OUT.parts.
+  bool finish(const io::Provenance& provenance, std::string* error);
+  // The committed part files, sorted.
+  std::vector<std::filesystem::path> committed_parts() const;
+
+ private:
+  explicit PartedOutput(PartedOutputOptions options) : options_(std::move(options)) {}
+  bool refresh_master(std::string* error);
+
+  PartedOutputOptions options_;
+  std::set<std::string> done_;
+  std::unique_ptr<io::LibraryWriter> current_;
+  std::filesystem::path current_path_;
+  int clips_in_current_ = 0;
+  int next_part_ = 0;
+  std::chrono::steady_clock::time_point opened_at_;
+};
+
+}  // namespace mocap::engine

@@ -1,0 +1,27 @@
+#include "engine/run_summary.hpp"
+
+namespace mocap::engine {
+
+nlohmann::json RunSummary::to_json() const {
+  nlohmann::json j = extra;
+  j["command"] = command;
+  j["clips"] = clips;
+  j["frames"] = frames;
+  j["joints"] = joints;
+  j["joint_frames"] = joint_frames;
+  j["threads"] = threads;
+  j["seconds"] = seconds;
+  j["joint_frames_per_second"] = seconds > 0 ? double(joint_frames) / seconds : 0.0;
+  j["interrupted"] = interrupted;
+  nlohmann::json failures = nlohmann::json::array();
+  for (const auto& f : failed) failures.push_back({{"clip", f.clip}, {"error", f.error}});
+  j["failed"] = failures;
+  return j;
+}
+
+int RunSummary::exit_status() const {
+  if (clips == 0 && (!failed.empty() || interrupted)) return 2;
+  return failed.empty() && !interrupted ? 0 : 1;
+}
+
+}  // namespace mocap::engine

@@ -1,0 +1,24 @@
+#pragma once
+// Turning the SRC... arguments of a command into the list of BVH files to read, each with the
+// relative path it keeps in the output (folders are walked recursively).
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace mocap::engine {
+
+struct SourceFile {
+  std::filesystem::path path;      // as found on disk
+  std::string relative;            // output-relative path with '/', e.g. "02/02_01.bvh"
+};
+
+struct SourceList {
+  std::vector<SourceFile> files;   // sorted by relative path, duplicates removed
+  std::vector<std::string> errors; // arguments that are neither a .bvh file nor a folder
+};
+
+// A file argument keeps its own name; a folder argument contributes every *.bvh below it
+// (case-insensitive extension) relative to the folder. Symlinked folders are not followed.
+SourceList collect_bvh_sources(const std::vector<std::string>& arguments);
+
+}  // namespace mocap::engine

@@ -1,0 +1,118 @@
+#include "io/chunk_codec.hpp"
+
+#include <lz4.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+
+namespace mocap::io {
+
+namespace {
+
+constexpr std::size_t kLz4DefaultBlockSize = std::size_t(1) << 30;
+
+void append_be(std::vector<std::uint8_t>& out, std::uint64_t value, int bytes) {
+  for (int i = bytes - 1; i >= 0; --i) out.push_back(std::uint8_t(value >> (8 * i)));
+}
+
+std::uint64_t read_be(const std::uint8_t* in, int bytes) {
+  std::uint64_t value = 0;
+  for (int i = 0; i < bytes; ++i) value = (value << 8) | in[i];
+  return value;
+}
+
+}  // namespace
+
+void shuffle_bytes(std::span<const std::uint8_t> in, std::size_t element_size,
+                   std::span<std::uint8_t> out) {
+  const std::size_t n = element_size > 0 ? in.size() / element_size : 0;
+  if (element_size <= 1 || n <= 1) {  // HDF5 leaves such chunks as they are
+    std::copy(in.begin(), in.end(), out.begin());
+    return;
+  }
+  for (std::size_t b = 0; b < element_size; ++b) {
+    std::uint8_t* dst = out.data() + b * n;
+    const std::uint8_t* src = in.data() + b;
+    for (std::size_t i = 0; i < n; ++i) dst[i] = src[i * element_size];
+  }
+  const std::size_t whole = n * element_size;
+  std::copy(in.begin() + std::ptrdiff_t(whole), in.end(), out.begin() + std::ptrdiff_t(whole));
+}
+
+bool lz4_filter_encode(std::span<const std::uint8_t> in, std::vector<std::uint8_t>& out) {
+  if (in.size() > std::size_t(std::numeric_limits<std::int32_t>::max())) return false;
+  const std::size_t total = in.size();
+  const std::size_t block_size = std::min(kLz4DefaultBlockSize, total);
+  append_be(out, total, 8);
+  append_be(out, block_size, 4);
+  for (std::size_t start = 0; start < total; start += block_size) {
+    const int length = int(std::min(block_size, total - start));
+    const std::size_t size_at = out.size();
+    out.resize(size_at + 4 + std::size_t(LZ4_compressBound(length)));
+    const char* src = reinterpret_cast<const char*>(in.data() + start);
+    char* dst = reinterpret_cast<char*>(out.data() + size_at + 4);
+    int stored = LZ4_compress_default(src, dst, length, LZ4_compressBound(length));
+    if (stored <= 0) return false;
+    if (stored >= length) {  // the plugin stores such a block raw, marked by size == length
+      stored = length;
+      std::memcpy(dst, src, std::size_t(length));
+    }
+    out.resize(size_at + 4 + std::size_t(stored));
+    for (int i = 0; i < 4; ++i)
+      out[size_at + std::size_t(i)] = std::uint8_t(stored >> (8 * (3 - i)));
+  }
+  return true;
+}
+
+bool lz4_filter_decode(std::span<const std::uint8_t> in, std::vector<std::uint8_t>& out) {
+  if (in.size() < 12) return false;
+  const std::uint64_t total = read_be(in.data(), 8);
+  std::uint64_t block_size = std::min<std::uint64_t>(read_be(in.data() + 8, 4), total);
+  if (total > std::uint64_t(std::numeric_limits<std::int32_t>::max())) return false;
+  if (block_size == 0 && total > 0) return false;
+  std::size_t at = 12;
+  const std::size_t base = out.size();
+  out.resize(base + std::size_t(total));
+  for (std::uint64_t done = 0; done < total; done += block_size) {
+    block_size = std::min(block_size, total - done);
+    if (at + 4 > in.size()) return false;
+    const std::uint64_t stored = read_be(in.data() + at, 4);
+    at += 4;
+    if (stored > in.size() - at) return false;
+    char* dst = reinterpret_cast<char*>(out.data() + base + done);
+    const char* src = reinterpret_cast<const char*>(in.data() + at);
+    if (stored == block_size) {
+      std::memcpy(dst, src, std::size_t(block_size));
+    } else if (LZ4_decompress_safe(src, dst, int(stored), int(block_size)) != int(block_size)) {
+      return false;
+    }
+    at += std::size_t(stored);
+  }
+  return true;
+}
+
+bool deflate_encode(std::span<const std::uint8_t> in, int level, std::vector<std::uint8_t>& out) {
+  const std::size_t base = out.size();
+  uLongf stored = compressBound(uLong(in.size()));
+  out.resize(base + stored);
+  if (compress2(out.data() + base, &stored, in.data(), uLong(in.size()), level) != Z_OK)
+    return false;
+  out.resize(base + stored);
+  return true;
+}
+
+bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression,
+                  std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch) {
+  if (compression == Compression::none) {
+    out.insert(out.end(), raw.begin(), raw.end());
+    return true;
+  }
+  scratch.resize(raw.size());
+  shuffle_bytes(raw, sizeof(float), scratch);
+  if (compression == Compression::lz4) return lz4_filter_encode(scratch, out);
+  return deflate_encode(scratch, kDeflateLevel, out);
+}
+
+}  // namespace mocap::io

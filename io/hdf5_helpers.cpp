@@ -1,0 +1,232 @@
+#include "io/hdf5_helpers.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+namespace mocap::io::h5 {
+
+ErrorSilence::ErrorSilence() {
+  H5Eget_auto2(H5E_DEFAULT, &function_, &data_);
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
+
+ErrorSilence::~ErrorSilence() {
+  H5Eset_auto2(H5E_DEFAULT, function_, data_);
+}
+
+std::string last_error_detail() {
+  std::string detail;
+  // Walking upward starts at the innermost error, the one that says what actually went wrong.
+  auto keep_first = [](unsigned n, const H5E_error2_t* e, void* out) -> herr_t {
+    if (n == 0 && e->desc) *static_cast<std::string*>(out) = e->desc;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, keep_first, &detail);
+  H5Eclear2(H5E_DEFAULT);
+  return detail;
+}
+
+std::string with_detail(std::string message) {
+  const std::string detail = last_error_detail();
+  if (!detail.empty()) message += " (HDF5: " + detail + ")";
+  return message;
+}
+
+bool link_exists(hid_t location, const std::string& name) {
+  return H5Lexists(location, name.c_str(), H5P_DEFAULT) > 0;
+}
+
+Datatype utf8_string_type() {
+  Datatype type(H5Tcopy(H5T_C_S1));
+  if (!type || H5Tset_size(type.get(), H5T_VARIABLE) < 0 ||
+      H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0)
+    return {};
+  return type;
+}
+
+namespace {
+
+bool write_attribute(hid_t object, const char* name, hid_t file_type, hid_t memory_type,
+                     const void* value) {
+  if (H5Aexists(object, name) > 0 && H5Adelete(object, name) < 0) return false;
+  const Dataspace space(H5Screate(H5S_SCALAR));
+  if (!space) return false;
+  const Attribute attribute(
+      H5Acreate2(object, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT));
+  return attribute && H5Awrite(attribute.get(), memory_type, value) >= 0;
+}
+
+// Reads every element of a string attribute or dataset, whose type and space are given, with
+// `read(memory_type, buffer)`.
+template <class Read>
+std::optional<std::vector<std::string>> read_strings(hid_t file_type, hid_t space, Read read) {
+  if (H5Tget_class(file_type) != H5T_STRING) return std::nullopt;
+  const hssize_t count = H5Sget_simple_extent_npoints(space);
+  if (count < 0) return std::nullopt;
+  std::vector<std::string> out(static_cast<std::size_t>(count));
+  // A memory string type of the file's character set (HDF5 converts between none) and kind.
+  const bool variable = H5Tis_variable_str(file_type) > 0;
+  const std::size_t size = variable ? 0 : H5Tget_size(file_type);
+  const Datatype memory_type(H5Tcopy(H5T_C_S1));
+  if (!memory_type || (!variable && size == 0) ||
+      H5Tset_size(memory_type.get(), variable ? H5T_VARIABLE : size) < 0 ||
+      H5Tset_cset(memory_type.get(), H5Tget_cset(file_type)) < 0 ||
+      H5Tset_strpad(memory_type.get(), H5Tget_strpad(file_type)) < 0)
+    return std::nullopt;
+  if (variable) {
+    std::vector<char*> pointers(out.size(), nullptr);
+    if (!read(memory_type.get(), pointers.data())) return std::nullopt;
+    for (std::size_t i = 0; i < out.size(); ++i)
+      if (pointers[i]) out[i] = pointers[i];
+    H5Dvlen_reclaim(memory_type.get(), space, H5P_DEFAULT, pointers.data());
+    return out;
+  }
+  std::vector<char> buffer(size * out.size() + 1, '\0');
+  if (!read(memory_type.get(), buffer.data())) return std::nullopt;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const char* text = buffer.data() + i * size;
+    std::size_t length = std::find(text, text + size, '\0') - text;
+    while (length > 0 && H5Tget_strpad(file_type) == H5T_STR_SPACEPAD && text[length - 1] == ' ')
+      --length;
+    out[i].assign(text, length);
+  }
+  return out;
+}
+
+}  // namespace
+
+bool write_string_attribute(hid_t object, const char* name, std::string_view value) {
+  const Datatype type = utf8_string_type();
+  const std::string text(value);
+  const char* pointer = text.c_str();
+  return type && write_attribute(object, name, type.get(), type.get(), &pointer);
+}
+
+bool write_int_attribute(hid_t object, const char* name, int value) {
+  return write_attribute(object, name, H5T_STD_I32LE, H5T_NATIVE_INT, &value);
+}
+
+bool write_double_attribute(hid_t object, const char* name, double value) {
+  return write_attribute(object, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &value);
+}
+
+std::optional<std::string> read_string_attribute(hid_t object, const char* name) {
+  if (H5Aexists(object, name) <= 0) return std::nullopt;
+  const Attribute attribute(H5Aopen(object, name, H5P_DEFAULT));
+  if (!attribute) return std::nullopt;
+  const Datatype type(H5Aget_type(attribute.get()));
+  const Dataspace space(H5Aget_space(attribute.get()));
+  if (!type || !space) return std::nullopt;
+  auto strings = read_strings(type.get(), space.get(), [&](hid_t memory_type, void* buffer) {
+    return H5Aread(attribute.get(), memory_type, buffer) >= 0;
+  });
+  if (!strings || strings->size() != 1) return std::nullopt;
+  return std::move(strings->front());
+}
+
+namespace {
+
+template <class T>
+std::optional<T> read_number_attribute(hid_t object, const char* name, H5T_class_t wanted,
+                                       hid_t memory_type) {
+  if (H5Aexists(object, name) <= 0) return std::nullopt;
+  const Attribute attribute(H5Aopen(object, name, H5P_DEFAULT));
+  if (!attribute) return std::nullopt;
+  const Datatype type(H5Aget_type(attribute.get()));
+  const Dataspace space(H5Aget_space(attribute.get()));
+  if (!type || !space || H5Tget_class(type.get()) != wanted ||
+      H5Sget_simple_extent_npoints(space.get()) != 1)
+    return std::nullopt;
+  T value{};
+  if (H5Aread(attribute.get(), memory_type, &value) < 0) return std::nullopt;
+  return value;
+}
+
+}  // namespace
+
+std::optional<long long> read_int_attribute(hid_t object, const char* name) {
+  return read_number_attribute<long long>(object, name, H5T_INTEGER, H5T_NATIVE_LLONG);
+}
+
+std::optional<double> read_double_attribute(hid_t object, const char* name) {
+  return read_number_attribute<double>(object, name, H5T_FLOAT, H5T_NATIVE_DOUBLE);
+}
+
+bool write_string_dataset(hid_t group, const char* name, const std::vector<std::string>& values) {
+  const Datatype type = utf8_string_type();
+  if (!type) return false;
+  std::vector<const char*> pointers;
+  pointers.reserve(values.size());
+  for (const auto& v : values) pointers.push_back(v.c_str());
+  const hsize_t dims[1] = {values.size()};
+  return write_dataset(group, name, type.get(), type.get(), dims, pointers.data());
+}
+
+std::optional<std::vector<std::string>> read_string_dataset(hid_t group, const char* name) {
+  if (!link_exists(group, name)) return std::nullopt;
+  const Dataset dataset(H5Dopen2(group, name, H5P_DEFAULT));
+  if (!dataset) return std::nullopt;
+  const Datatype type(H5Dget_type(dataset.get()));
+  const Dataspace space(H5Dget_space(dataset.get()));
+  if (!type || !space || H5Sget_simple_extent_ndims(space.get()) != 1) return std::nullopt;
+  return read_strings(type.get(), space.get(), [&](hid_t memory_type, void* buffer) {
+    return H5Dread(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buffer) >= 0;
+  });
+}
+
+bool write_dataset(hid_t group, const char* name, hid_t file_type, hid_t memory_type,
+                   std::span<const hsize_t> dims, const void* data) {
+  const Dataspace space(H5Screate_simple(int(dims.size()), dims.data(), nullptr));
+  if (!space) return false;
+  const Dataset dataset(
+      H5Dcreate2(group, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  if (!dataset) return false;
+  const bool empty = std::any_of(dims.begin(), dims.end(), [](hsize_t d) { return d == 0; });
+  return empty || H5Dwrite(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) >= 0;
+}
+
+std::optional<std::vector<hsize_t>> dataset_dims(hid_t dataset) {
+  const Dataspace space(H5Dget_space(dataset));
+  if (!space) return std::nullopt;
+  const int rank = H5Sget_simple_extent_ndims(space.get());
+  if (rank < 0) return std::nullopt;
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), dims.data(), nullptr) < 0)
+    return std::nullopt;
+  return dims;
+}
+
+bool read_dataset(hid_t group, const char* name, hid_t memory_type, std::size_t count, void* out) {
+  if (!link_exists(group, name)) return false;
+  const Dataset dataset(H5Dopen2(group, name, H5P_DEFAULT));
+  if (!dataset) return false;
+  const Dataspace space(H5Dget_space(dataset.get()));
+  if (!space || H5Sget_simple_extent_npoints(space.get()) != hssize_t(count)) return false;
+  return count == 0 || H5Dread(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out) >= 0;
+}
+
+PropertyList motion_dataset_properties(Compression compression, const hsize_t chunk[3]) {
+  PropertyList properties(H5Pcreate(H5P_DATASET_CREATE));
+  if (!properties || H5Pset_chunk(properties.get(), 3, chunk) < 0) return {};
+  // The padding of a clip's last, partial chunk is written as zeros, so the stored bytes depend
+  // on the clip alone (and encode_clip() can reproduce them).
+  if (H5Pset_fill_time(properties.get(), H5D_FILL_TIME_ALLOC) < 0) return {};
+  bool ok = true;
+  switch (compression) {
+    case Compression::none:
+      break;
+    case Compression::lz4:
+      ok = H5Pset_shuffle(properties.get()) >= 0 &&
+           H5Pset_filter(properties.get(), H5Z_filter_t(kLz4FilterId), H5Z_FLAG_MANDATORY, 0,
+                         nullptr) >= 0;
+      break;
+    case Compression::deflate:
+      ok = H5Pset_shuffle(properties.get()) >= 0 &&
+           H5Pset_deflate(properties.get(), unsigned(kDeflateLevel)) >= 0;
+      break;
+  }
+  if (!ok) return {};
+  return properties;
+}
+
+}  // namespace mocap::io::h5

@@ -1,0 +1,62 @@
+#pragma once
+// The HDF5 chores of the library store: quiet error handling with our own messages, string and
+// scalar attributes, small datasets, and the creation properties of the motion datasets.
+// Internal to io/library_*.cpp; every function here is called from one thread at a time.
+#include <hdf5.h>
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "io/compression.hpp"
+#include "io/hdf5_handle.hpp"
+
+namespace mocap::io::h5 {
+
+// Keeps HDF5 from printing its error stack while alive (restores the previous handler after);
+// errors are still recorded, so last_error_detail() can quote them.
+class ErrorSilence {
+ public:
+  ErrorSilence();
+  ~ErrorSilence();
+  ErrorSilence(const ErrorSilence&) = delete;
+  ErrorSilence& operator=(const ErrorSilence&) = delete;
+
+ private:
+  H5E_auto2_t function_ = nullptr;
+  void* data_ = nullptr;
+};
+
+// The innermost message of HDF5's current error stack ("" if none); clears the stack.
+std::string last_error_detail();
+// `message`, followed by ": " and last_error_detail() when HDF5 recorded one.
+std::string with_detail(std::string message);
+
+bool link_exists(hid_t location, const std::string& name);  // one path component
+
+Datatype utf8_string_type();  // variable-length UTF-8
+bool write_string_attribute(hid_t object, const char* name, std::string_view value);
+bool write_int_attribute(hid_t object, const char* name, int value);
+bool write_double_attribute(hid_t object, const char* name, double value);
+// Nullopt when absent or of another class; fixed-length strings are accepted too.
+std::optional<std::string> read_string_attribute(hid_t object, const char* name);
+std::optional<long long> read_int_attribute(hid_t object, const char* name);
+std::optional<double> read_double_attribute(hid_t object, const char* name);
+
+bool write_string_dataset(hid_t group, const char* name, const std::vector<std::string>& values);
+// A 1-D string dataset (variable or fixed length); nullopt when absent or not strings.
+std::optional<std::vector<std::string>> read_string_dataset(hid_t group, const char* name);
+bool write_dataset(hid_t group, const char* name, hid_t file_type, hid_t memory_type,
+                   std::span<const hsize_t> dims, const void* data);
+// Dimensions of a dataset; nullopt if it cannot be queried.
+std::optional<std::vector<hsize_t>> dataset_dims(hid_t dataset);
+// Reads a whole numeric dataset of `count` elements converted to `memory_type`.
+bool read_dataset(hid_t group, const char* name, hid_t memory_type, std::size_t count, void* out);
+
+// Creation properties of a [frames][joints][channels] float32 motion dataset: chunks of
+// chunk_frames() frames (io/compression.hpp), filtered for `compression`.
+PropertyList motion_dataset_properties(Compression compression, const hsize_t chunk[3]);
+
+}  // namespace mocap::io::h5

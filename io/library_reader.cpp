@@ -1,0 +1,445 @@
+#include "io/library_reader.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include "io/hdf5_handle.hpp"
+#include "io/hdf5_helpers.hpp"
+
+namespace mocap::io {
+
+namespace detail {
+
+struct LibraryReaderState {
+  std::filesystem::path path;
+  h5::File file;
+  std::vector<ClipHeader> clips;
+  std::map<std::string, std::shared_ptr<const Skeleton>> skeletons;  // read so far, by name
+
+  std::string message(const std::string& text) const { return path.string() + ": " + text; }
+  bool fail(std::string* error, const std::string& text) const {
+    if (error) *error = message(text);
+    return false;
+  }
+};
+
+}  // namespace detail
+
+using State = detail::LibraryReaderState;
+
+namespace {
+
+std::string shape_text(const std::vector<hsize_t>& dims) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < dims.size(); ++i) out += (i ? ", " : "") + std::to_string(dims[i]);
+  return out + "]";
+}
+
+bool is_valid_name(const std::string& name) {
+  return !name.empty() && name != "." && name != ".." && name.find('/') == std::string::npos;
+}
+
+// The shape of dataset `name` of a clip group, or a problem. Checks it is float and rank 3.
+std::optional<std::vector<hsize_t>> motion_dims(hid_t clip, const char* name,
+                                                std::string* problem) {
+  if (!h5::link_exists(clip, name)) {
+    *problem = std::string("it has no '") + name + "' dataset";
+    return std::nullopt;
+  }
+  const h5::Dataset dataset(H5Dopen2(clip, name, H5P_DEFAULT));
+  const h5::Datatype type(dataset ? H5Dget_type(dataset.get()) : H5I_INVALID_HID);
+  auto dims = dataset ? h5::dataset_dims(dataset.get()) : std::nullopt;
+  if (!dataset || !type || !dims) {
+    *problem = h5::with_detail(std::string("cannot open its '") + name + "' dataset");
+    return std::nullopt;
+  }
+  if (H5Tget_class(type.get()) != H5T_FLOAT) {
+    *problem = std::string("its '") + name + "' dataset is not floating point";
+    return std::nullopt;
+  }
+  if (dims->size() != 3) {
+    *problem = std::string("its '") + name + "' dataset has shape " + shape_text(*dims) +
+               "; expected rank 3";
+    return std::nullopt;
+  }
+  return dims;
+}
+
+// The attributes and shape of the clip group `clip`; a problem goes to header.error.
+ClipHeader read_header(const State& state, hid_t clip, const std::string& path) {
+  ClipHeader header;
+  header.path = path;
+  auto fail = [&](const std::string& problem) {
+    header.error = state.message("clip '" + path + "': " + problem);
+    return header;
+  };
+  const auto skeleton = h5::read_string_attribute(clip, "skeleton");
+  if (!skeleton || !is_valid_name(*skeleton))
+    return fail("it has no valid 'skeleton' attribute (the name of a group in /skeletons)");
+  header.skeleton = *skeleton;
+  const auto frame_time = h5::read_double_attribute(clip, "frame_time");
+  if (!frame_time || !(*frame_time > 0)) return fail("it has no 'frame_time' attribute > 0");
+  header.frame_time = *frame_time;
+  header.source = h5::read_string_attribute(clip, "source").value_or("");
+  std::string problem;
+  const auto dims = motion_dims(clip, "rotations", &problem);
+  if (!dims) return fail(problem);
+  if ((*dims)[0] > hsize_t(INT_MAX) || (*dims)[1] > hsize_t(INT_MAX))
+    return fail("its rotations have shape " + shape_text(*dims) + ", too large");
+  header.frames = int((*dims)[0]);
+  header.joints = int((*dims)[1]);
+  return header;
+}
+
+// Why the link `name` in `group` leads nowhere, naming its target.
+std::string dangling_link_problem(hid_t group, const std::string& name) {
+  H5L_info_t info{};
+  if (H5Lget_info(group, name.c_str(), &info, H5P_DEFAULT) < 0)
+    return h5::with_detail("cannot follow the link");
+  if (info.type != H5L_TYPE_EXTERNAL && info.type != H5L_TYPE_SOFT)
+    return h5::with_detail("cannot open the object");
+  std::vector<char> value(info.u.val_size + 1, '\0');
+  if (H5Lget_val(group, name.c_str(), value.data(), value.size(), H5P_DEFAULT) < 0)
+    return h5::with_detail("cannot read the link");
+  h5::last_error_detail();  // clears the stack left by the failed open
+  if (info.type == H5L_TYPE_SOFT)
+    return "soft link to '" + std::string(value.data()) + "' leads nowhere";
+  unsigned flags = 0;
+  const char* file = nullptr;
+  const char* object = nullptr;
+  if (H5Lunpack_elink_val(value.data(), info.u.val_size, &flags, &file, &object) < 0)
+    return "external link that cannot be decoded";
+  return "external link to '" + std::string(file) + ":" + object +
+         "' leads nowhere (is the file missing?)";
+}
+
+// The groups on the way down from /clips (file number, address): a link back to one of them
+// would loop. A group reached by two links (a soft link alias) is listed under both paths.
+using Ancestors = std::set<std::pair<unsigned long, haddr_t>>;
+
+// Lists the clips below `group`, whose path below /clips is `prefix`.
+void walk(const State& state, hid_t group, const std::string& prefix, Ancestors& ancestors,
+          std::vector<ClipHeader>& out) {
+  std::vector<std::string> names;
+  auto collect = [](hid_t, const char* name, const H5L_info_t*, void* data) -> herr_t {
+    static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+    return 0;
+  };
+  if (H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, nullptr, collect, &names) < 0) {
+    ClipHeader broken;
+    broken.path = prefix;
+    broken.error = state.message(h5::with_detail("cannot list group '/clips/" + prefix + "'"));
+    out.push_back(std::move(broken));
+    return;
+  }
+  for (const std::string& name : names) {
+    const std::string path = prefix.empty() ? name : prefix + "/" + name;
+    H5O_info_t info{};
+    if (H5Oget_info_by_name2(group, name.c_str(), &info, H5O_INFO_BASIC, H5P_DEFAULT) < 0) {
+      ClipHeader broken;
+      broken.path = path;
+      broken.error = state.message("clip '" + path + "': " + dangling_link_problem(group, name));
+      out.push_back(std::move(broken));
+      continue;
+    }
+    if (info.type != H5O_TYPE_GROUP) continue;  // stray datasets are not clips
+    const auto key = std::pair{info.fileno, info.addr};
+    if (ancestors.count(key)) continue;
+    const h5::Group child(H5Gopen2(group, name.c_str(), H5P_DEFAULT));
+    if (!child) continue;
+    if (h5::link_exists(child.get(), "rotations")) {
+      out.push_back(read_header(state, child.get(), path));
+    } else {
+      ancestors.insert(key);
+      walk(state, child.get(), path, ancestors, out);
+      ancestors.erase(key);
+    }
+  }
+}
+
+// Splits a channel list such as "Zrotation Xrotation Yrotation".
+std::optional<std::vector<Channel>> parse_channel_list(const std::string& list, std::string* bad) {
+  std::vector<Channel> channels;
+  std::istringstream words(list);
+  for (std::string word; words >> word;) {
+    const auto channel = parse_channel(word);
+    if (!channel) {
+      *bad = word;
+      return std::nullopt;
+    }
+    channels.push_back(*channel);
+  }
+  return channels;
+}
+
+// The skeleton /skeletons/<name> of `file`, or a problem.
+std::shared_ptr<const Skeleton> read_skeleton(hid_t file, const std::string& name,
+                                              std::string* problem) {
+  const std::string where = "skeleton '" + name + "': ";
+  h5::Group group;
+  if (is_valid_name(name) && h5::link_exists(file, "skeletons")) {
+    const h5::Group skeletons(H5Gopen2(file, "skeletons", H5P_DEFAULT));
+    if (skeletons && h5::link_exists(skeletons.get(), name))
+      group = h5::Group(H5Gopen2(skeletons.get(), name.c_str(), H5P_DEFAULT));
+  }
+  if (!group) {
+    *problem = "no skeleton '" + name + "' in /skeletons";
+    return nullptr;
+  }
+  const hid_t g = group.get();
+  auto skeleton = std::make_shared<Skeleton>();
+  auto names = h5::read_string_dataset(g, "joint_names");
+  if (!names) {
+    *problem = where + "no readable 'joint_names' strings";
+    return nullptr;
+  }
+  skeleton->joint_names = std::move(*names);
+  const std::size_t n = skeleton->joint_names.size();
+  skeleton->parents.resize(n);
+  std::vector<double> offsets(3 * n);
+  if (!h5::read_dataset(g, "parents", H5T_NATIVE_INT, n, skeleton->parents.data()) ||
+      !h5::read_dataset(g, "offsets", H5T_NATIVE_DOUBLE, 3 * n, offsets.data())) {
+    *problem = where +
+               "'parents' [J] and 'offsets' [J,3] are missing or of another size than "
+               "'joint_names' (" +
+               std::to_string(n) + " joints)";
+    return nullptr;
+  }
+  const auto channels = h5::read_string_dataset(g, "channels");
+  if (!channels || channels->size() != n) {
+    *problem = where + "'channels' must hold one string per joint";
+    return nullptr;
+  }
+  for (std::size_t j = 0; j < n; ++j) {
+    skeleton->offsets.push_back({offsets[3 * j], offsets[3 * j + 1], offsets[3 * j + 2]});
+    std::string bad;
+    auto list = parse_channel_list((*channels)[j], &bad);
+    if (!list) {
+      *problem =
+          where + "joint '" + skeleton->joint_names[j] + "' has unknown channel '" + bad + "'";
+      return nullptr;
+    }
+    skeleton->channels.push_back(std::move(*list));
+  }
+  // end_sites and has_end_site are this format's additions; a file without them has none.
+  skeleton->end_sites.assign(n, std::nullopt);
+  if (h5::link_exists(g, "end_sites") || h5::link_exists(g, "has_end_site")) {
+    std::vector<double> ends(3 * n);
+    std::vector<std::uint8_t> has(n);
+    if (!h5::read_dataset(g, "end_sites", H5T_NATIVE_DOUBLE, 3 * n, ends.data()) ||
+        !h5::read_dataset(g, "has_end_site", H5T_NATIVE_UINT8, n, has.data())) {
+      *problem = where + "'end_sites' [J,3] and 'has_end_site' [J] must come together";
+      return nullptr;
+    }
+    for (std::size_t j = 0; j < n; ++j)
+      if (has[j]) skeleton->end_sites[j] = Vec3{ends[3 * j], ends[3 * j + 1], ends[3 * j + 2]};
+  }
+  if (std::string structure = check_structure(*skeleton); !structure.empty()) {
+    *problem = where + structure;
+    return nullptr;
+  }
+  return skeleton;
+}
+
+// Reads a whole motion dataset; a problem (naming the missing LZ4 plugin if that is it) or "".
+std::string read_floats(hid_t clip, const char* name, std::vector<float>& out) {
+  const h5::Dataset dataset(H5Dopen2(clip, name, H5P_DEFAULT));
+  if (dataset && (out.empty() || H5Dread(dataset.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL,
+                                         H5P_DEFAULT, out.data()) >= 0))
+    return {};
+  std::string problem = h5::with_detail(std::string("cannot read its '") + name + "' dataset");
+  const h5::PropertyList properties(dataset ? H5Dget_create_plist(dataset.get()) : H5I_INVALID_HID);
+  unsigned flags = 0;
+  std::size_t values = 0;
+  if (properties && H5Pget_filter_by_id2(properties.get(), H5Z_filter_t(kLz4FilterId), &flags,
+                                         &values, nullptr, 0, nullptr, nullptr) >= 0)
+    if (std::string reason = compression_unavailable_reason(Compression::lz4); !reason.empty())
+      problem += "; " + reason;
+  h5::last_error_detail();
+  return problem;
+}
+
+}  // namespace
+
+LibraryReader::LibraryReader(std::unique_ptr<State> state) : state_(std::move(state)) {}
+
+LibraryReader::~LibraryReader() = default;
+
+std::unique_ptr<LibraryReader> LibraryReader::open(const std::filesystem::path& path,
+                                                   std::string* error) {
+  const h5::ErrorSilence quiet;
+  auto state = std::make_unique<State>();
+  state->path = path;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    state->fail(error, "no such file");
+    return nullptr;
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    state->fail(error, "is a folder, not a library file");
+    return nullptr;
+  }
+  const htri_t is_hdf5 = H5Fis_hdf5(path.c_str());
+  if (is_hdf5 == 0) {
+    state->fail(error, "not an HDF5 file (a mocap-clean library is HDF5)");
+    return nullptr;
+  }
+  state->file =
+      h5::File(is_hdf5 > 0 ? H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID);
+  if (!state->file) {
+    state->fail(error, h5::with_detail("cannot open the file"));
+    return nullptr;
+  }
+  const hid_t file = state->file.get();
+  const auto format = h5::read_string_attribute(file, "format");
+  if (format != kLibraryFormat) {
+    state->fail(error, "an HDF5 file but not a mocap-clean library: " +
+                           (format ? "its 'format' attribute is '" + *format + "'"
+                                   : std::string("no 'format' attribute on /")) +
+                           ", expected '" + std::string(kLibraryFormat) + "'");
+    return nullptr;
+  }
+  const auto version = h5::read_int_attribute(file, "format_version");
+  if (!version) {
+    state->fail(error, "no integer 'format_version' attribute on /");
+    return nullptr;
+  }
+  if (*version != kLibraryFormatVersion) {
+    state->fail(error, "format_version " + std::to_string(*version) +
+                           " is not supported (this build reads version " +
+                           std::to_string(kLibraryFormatVersion) + ")");
+    return nullptr;
+  }
+  if (!h5::link_exists(file, "clips")) {
+    state->fail(error, "no /clips group");
+    return nullptr;
+  }
+  const h5::Group clips(H5Gopen2(file, "clips", H5P_DEFAULT));
+  if (!clips) {
+    state->fail(error, h5::with_detail("cannot open /clips"));
+    return nullptr;
+  }
+  Ancestors ancestors;
+  H5O_info_t info{};
+  if (H5Oget_info2(clips.get(), &info, H5O_INFO_BASIC) >= 0)
+    ancestors.insert({info.fileno, info.addr});
+  walk(*state, clips.get(), "", ancestors, state->clips);
+  std::sort(state->clips.begin(), state->clips.end(),
+            [](const ClipHeader& a, const ClipHeader& b) { return a.path < b.path; });
+  return std::unique_ptr<LibraryReader>(new LibraryReader(std::move(state)));
+}
+
+const std::vector<ClipHeader>& LibraryReader::clips() const {
+  return state_->clips;
+}
+
+const std::filesystem::path& LibraryReader::path() const {
+  return state_->path;
+}
+
+std::shared_ptr<const Skeleton> LibraryReader::skeleton(const std::string& name,
+                                                        std::string* error) const {
+  const h5::ErrorSilence quiet;
+  if (auto known = state_->skeletons.find(name); known != state_->skeletons.end())
+    return known->second;
+  std::string problem;
+  auto skeleton = read_skeleton(state_->file.get(), name, &problem);
+  if (!skeleton) {
+    state_->fail(error, problem);
+    return nullptr;
+  }
+  state_->skeletons.emplace(name, skeleton);
+  return skeleton;
+}
+
+std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
+                                             std::string* error) const {
+  const h5::ErrorSilence quiet;
+  const std::string where = "clip '" + clip_path + "': ";
+  if (std::string problem = check_clip_path(clip_path); !problem.empty()) {
+    state_->fail(error, problem);
+    return std::nullopt;
+  }
+  const h5::Group group(H5Gopen2(state_->file.get(), ("clips/" + clip_path).c_str(), H5P_DEFAULT));
+  if (!group || !h5::link_exists(group.get(), "rotations")) {
+    h5::last_error_detail();
+    state_->fail(error, "no clip '" + clip_path + "' in /clips");
+    return std::nullopt;
+  }
+  const ClipHeader header = read_header(*state_, group.get(), clip_path);
+  if (!header.error.empty()) {
+    if (error) *error = header.error;
+    return std::nullopt;
+  }
+  std::shared_ptr<const Skeleton> skeleton;
+  if (auto known = state_->skeletons.find(header.skeleton); known != state_->skeletons.end()) {
+    skeleton = known->second;
+  } else {
+    // This file's /skeletons first, then those of the file holding the clip (an external part).
+    std::string problem;
+    skeleton = read_skeleton(state_->file.get(), header.skeleton, &problem);
+    if (!skeleton) {
+      const h5::File own_file(H5Iget_file_id(group.get()));
+      std::string own_problem;
+      if (own_file) skeleton = read_skeleton(own_file.get(), header.skeleton, &own_problem);
+      if (!skeleton) {
+        state_->fail(error, where + problem);
+        return std::nullopt;
+      }
+    }
+    state_->skeletons.emplace(header.skeleton, skeleton);
+  }
+  const int joints = skeleton->joint_count();
+  std::string problem;
+  const auto rotations = motion_dims(group.get(), "rotations", &problem);
+  const auto translations =
+      rotations ? motion_dims(group.get(), "translations", &problem) : std::nullopt;
+  if (!rotations || !translations) {
+    state_->fail(error, where + problem);
+    return std::nullopt;
+  }
+  const std::vector<hsize_t> want_rotations = {(*rotations)[0], hsize_t(joints), 4};
+  const std::vector<hsize_t> want_translations = {(*rotations)[0], hsize_t(joints), 3};
+  if (*rotations != want_rotations || *translations != want_translations) {
+    state_->fail(error, where + "rotations " + shape_text(*rotations) + " and translations " +
+                            shape_text(*translations) + " do not match skeleton '" +
+                            header.skeleton + "' of " + std::to_string(joints) +
+                            " joints: expected [F, " + std::to_string(joints) + ", 4] and [F, " +
+                            std::to_string(joints) + ", 3] with equal F");
+    return std::nullopt;
+  }
+  Clip clip;
+  clip.skeleton = skeleton;
+  clip.frame_time = header.frame_time;
+  clip.frames = header.frames;
+  clip.source = header.source;
+  const std::size_t samples = std::size_t(clip.frames) * std::size_t(joints);
+  clip.rotations.resize(samples * 4);
+  clip.translations.resize(samples * 3);
+  problem = read_floats(group.get(), "rotations", clip.rotations);
+  if (problem.empty()) problem = read_floats(group.get(), "translations", clip.translations);
+  if (!problem.empty()) {
+    state_->fail(error, where + problem);
+    return std::nullopt;
+  }
+  return clip;
+}
+
+std::optional<Provenance> LibraryReader::provenance() const {
+  const h5::ErrorSilence quiet;
+  const hid_t file = state_->file.get();
+  if (!h5::link_exists(file, "provenance")) return std::nullopt;
+  const h5::Group group(H5Gopen2(file, "provenance", H5P_DEFAULT));
+  if (!group) return std::nullopt;
+  auto text = [&](const char* name) {
+    return h5::read_string_attribute(group.get(), name).value_or("");
+  };
+  return Provenance{text("method"), text("parameters"), text("engine_version"), text("input_file"),
+                    text("created")};
+}
+
+}  // namespace mocap::io

@@ -1,0 +1,56 @@
+#include "kernels/noise_estimate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "kernels/quaternion.hpp"
+
+namespace mocap {
+namespace {
+
+// Reorders `values` (non-empty).
+double median(std::vector<double>& values) {
+  const std::size_t n = values.size(), mid = n / 2;
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(mid), values.end());
+  const double upper = values[mid];
+  if (n % 2 == 1) return upper;
+  const double lower = *std::max_element(values.begin(), values.begin() + std::ptrdiff_t(mid));
+  return 0.5 * (lower + upper);
+}
+
+}  // namespace
+
+NoiseEstimate estimate_noise(RotationView rotations) {
+  const int frames = rotations.frames;
+  NoiseEstimate result;
+  if (rotations.empty() || frames < 3) return result;
+
+  std::vector<Vec3> steps(std::size_t(frames) - 1);
+  std::vector<double> work, components, joint_sigmas;
+  for (int j = 0; j < rotations.joints; ++j) {
+    work.clear();
+    for (int t = 0; t + 1 < frames; ++t) {
+      const Quat a = load_quat(rotations.at(t, j)), b = load_quat(rotations.at(t + 1, j));
+      steps[std::size_t(t)] = log(inverse(a) * b);
+      work.push_back(geodesic(a, b));
+    }
+    if (!(median(work) > kMovingJointStep)) continue;
+
+    components.clear();
+    for (std::size_t t = 1; t < steps.size(); ++t) {
+      const Vec3 c = steps[t] - steps[t - 1];
+      components.insert(components.end(), {c.x, c.y, c.z});
+    }
+    work = components;
+    const double center = median(work);
+    for (double& c : components) c = std::abs(c - center);
+    joint_sigmas.push_back(1.4826 * median(components) / std::sqrt(6.0));
+  }
+  if (joint_sigmas.empty()) return result;
+  result.moving_joints = int(joint_sigmas.size());
+  result.sigma = median(joint_sigmas);
+  return result;
+}
+
+}  // namespace mocap

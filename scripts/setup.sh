@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages mocap-clean needs (only those missing) and builds it.
+# Environment: BUILD_DIR (default build), MOCAP_SANITIZE (e.g. address,undefined), BUILD_TYPE.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libtbb-dev libeigen3-dev libhdf5-dev libhwy-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libcli11-dev libfmt-dev nlohmann-json3-dev
+  hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build_dir="${BUILD_DIR:-build}"
+cmake -S . -B "$build_dir" -G Ninja \
+  -DCMAKE_BUILD_TYPE="${BUILD_TYPE:-Release}" \
+  -DMOCAP_SANITIZE="${MOCAP_SANITIZE:-}" \
+  -DMOCAP_BUILD_BENCH="${MOCAP_BUILD_BENCH:-ON}" >/dev/null
+cmake --build "$build_dir" -j "$(nproc)"
