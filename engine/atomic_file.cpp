@@ -1,8 +1,8 @@
 #include "engine/atomic_file.hpp"
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <cerrno>
 
 namespace mocap::engine {
 

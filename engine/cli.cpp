@@ -1,7 +1,7 @@
 #include "engine/cli.hpp"
 
-#include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <CLI/CLI.hpp>
 
 #include "engine/commands.hpp"
 #include "engine/version.hpp"
@@ -27,78 +27,106 @@ The filters follow ../shared/spec/filters.md; see README.md for each method and 
 }  // namespace
 
 int run_cli(int argc, char** argv) {
-  CLI::App app{"mocap-clean " + std::string(kVersion) +
-               ": removes sensor jitter and pops from whole motion-capture libraries\n"
-               "without blurring the motion (bilateral orientation filter, non-local pose means,\n"
-               "and classic linear filters for comparison).",
-               "mocap-clean"};
+  CLI::App app{
+      "mocap-clean " + std::string(kVersion) +
+          ": removes sensor jitter and pops from whole motion-capture libraries\n"
+          "without blurring the motion (bilateral orientation filter, non-local pose means,\n"
+          "and classic linear filters for comparison).",
+      "mocap-clean"};
   app.footer(kFooter);
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string(kVersion));
   app.get_formatter()->column_width(34);
 
   CleanCommand clean;
-  CLI::App* clean_cmd = app.add_subcommand("clean", "filter BVH files or folders into a folder (same layout)");
-  clean_cmd->add_option("SRC", clean.sources, "BVH files or folders (searched recursively)")->required();
+  CLI::App* clean_cmd =
+      app.add_subcommand("clean", "filter BVH files or folders into a folder (same layout)");
+  clean_cmd->add_option("SRC", clean.sources, "BVH files or folders (searched recursively)")
+      ->required();
   clean_cmd->add_option("-o,--output", clean.output_dir, "output folder")->required();
   clean.filter.add_to(*clean_cmd, "bof");
   clean.run.add_to(*clean_cmd);
-  clean_cmd->footer("Each file keeps its path relative to the folder it was found in. A file that fails\n"
-                    "is named with its error; the others are still written (exit status 1).");
+  clean_cmd->footer(
+      "Each file keeps its path relative to the folder it was found in. A file that fails\n"
+      "is named with its error; the others are still written (exit status 1).");
 
   DemoCommand demo;
   CLI::App* demo_cmd = app.add_subcommand(
       "demo", "the main job on the built-in library: procedural clips, known noise, clean, score");
-  demo_cmd->add_option("-o,--output", demo.output_dir, "where the demo writes its folders")->capture_default_str();
+  demo_cmd->add_option("-o,--output", demo.output_dir, "where the demo writes its folders")
+      ->capture_default_str();
   demo_cmd->add_option("--noise", demo.noise_sigma, "gaussian noise level in rad")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   demo_cmd->add_option("--seed", demo.seed, "noise seed")->capture_default_str();
   demo.filter.add_to(*demo_cmd, "bof");
   demo.run.add_to(*demo_cmd);
 
   ImportCommand import;
-  CLI::App* import_cmd = app.add_subcommand("import", "BVH files or folders into one library file (HDF5)");
-  import_cmd->add_option("SRC", import.sources, "BVH files or folders (searched recursively)")->required();
+  CLI::App* import_cmd =
+      app.add_subcommand("import", "BVH files or folders into one library file (HDF5)");
+  import_cmd->add_option("SRC", import.sources, "BVH files or folders (searched recursively)")
+      ->required();
   import.output.add_to(*import_cmd);
   import.run.add_to(*import_cmd);
   import_cmd->footer("Clips keep their folder layout: mocap/02/02_01.bvh becomes /clips/02/02_01.");
 
   FilterCommand filter;
-  CLI::App* filter_cmd = app.add_subcommand("filter", "filter every clip of a library into a new library");
-  filter_cmd->add_option("LIB", filter.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  CLI::App* filter_cmd =
+      app.add_subcommand("filter", "filter every clip of a library into a new library");
+  filter_cmd->add_option("LIB", filter.input, "the library file to read")
+      ->required()
+      ->check(CLI::ExistingFile);
   filter.output.add_to(*filter_cmd);
   filter.filter.add_to(*filter_cmd, "bof");
   filter.run.add_to(*filter_cmd);
-  filter_cmd->footer("The output has the input's layout (runs chain) and records the method and its\n"
-                     "parameters in /provenance. An interrupted run leaves OUT valid with the clips\n"
-                     "finished so far; --resume completes it.");
+  filter_cmd->footer(
+      "The output has the input's layout (runs chain) and records the method and its\n"
+      "parameters in /provenance. An interrupted run leaves OUT valid with the clips\n"
+      "finished so far; --resume completes it.");
 
   ExportCommand export_;
-  CLI::App* export_cmd = app.add_subcommand("export", "a library's clips back to BVH files (same layout)");
-  export_cmd->add_option("LIB", export_.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  CLI::App* export_cmd =
+      app.add_subcommand("export", "a library's clips back to BVH files (same layout)");
+  export_cmd->add_option("LIB", export_.input, "the library file to read")
+      ->required()
+      ->check(CLI::ExistingFile);
   export_cmd->add_option("-o,--output", export_.output_dir, "output folder")->required();
   export_.run.add_to(*export_cmd);
 
   NoiseCommand noise;
-  CLI::App* noise_cmd = app.add_subcommand("noise", "add the spec's seeded noise models to a library");
-  noise_cmd->add_option("LIB", noise.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  CLI::App* noise_cmd =
+      app.add_subcommand("noise", "add the spec's seeded noise models to a library");
+  noise_cmd->add_option("LIB", noise.input, "the library file to read")
+      ->required()
+      ->check(CLI::ExistingFile);
   noise.output.add_to(*noise_cmd);
-  noise_cmd->add_option("--model", noise.model, "gaussian: jitter on every sample; impulse: sparse pops")
-      ->check(CLI::IsMember({"gaussian", "impulse"}))->capture_default_str();
+  noise_cmd
+      ->add_option("--model", noise.model, "gaussian: jitter on every sample; impulse: sparse pops")
+      ->check(CLI::IsMember({"gaussian", "impulse"}))
+      ->capture_default_str();
   noise_cmd->add_option("--sigma", noise.sigma, "gaussian: per-axis standard deviation in rad")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   noise_cmd->add_option("--rate", noise.rate, "impulse: probability per joint-sample")
-      ->check(CLI::Range(0.0, 1.0))->capture_default_str();
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   noise_cmd->add_option("--min-angle", noise.min_angle, "impulse: smallest pop in rad")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   noise_cmd->add_option("--max-angle", noise.max_angle, "impulse: largest pop in rad")
-      ->check(CLI::NonNegativeNumber)->capture_default_str();
-  noise_cmd->add_option("--seed", noise.seed, "the same seed and build give the same noise")->capture_default_str();
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  noise_cmd->add_option("--seed", noise.seed, "the same seed and build give the same noise")
+      ->capture_default_str();
   noise.run.add_to(*noise_cmd);
 
   InfoCommand info;
-  CLI::App* info_cmd = app.add_subcommand("info", "what a library file holds: clips, frames, skeletons, provenance");
-  info_cmd->add_option("LIB", info.input, "the library file to read")->required()->check(CLI::ExistingFile);
+  CLI::App* info_cmd =
+      app.add_subcommand("info", "what a library file holds: clips, frames, skeletons, provenance");
+  info_cmd->add_option("LIB", info.input, "the library file to read")
+      ->required()
+      ->check(CLI::ExistingFile);
   info_cmd->add_flag("--clips", info.list_clips, "list every clip");
   info_cmd->add_flag("--json", info.json, "machine-readable output on stdout");
 

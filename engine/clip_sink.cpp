@@ -25,7 +25,9 @@ bool BvhFolderSink::write(const std::string&, const std::string& relative, std::
   std::error_code ec;
   fs::create_directories(target.parent_path(), ec);
   if (ec) {
-    if (error) *error = fmt::format("cannot create folder {}: {}", target.parent_path().string(), ec.message());
+    if (error)
+      *error =
+          fmt::format("cannot create folder {}: {}", target.parent_path().string(), ec.message());
     return false;
   }
   return write_file_atomically(target, std::any_cast<const std::string&>(prepared), error);

@@ -17,8 +17,8 @@ class ClipSink {
   // Turns the finished clip into what write() stores; parallel across clips.
   virtual bool prepare(const io::Clip& clip, std::any& prepared, std::string* error) = 0;
   // Stores it under `clip_path` (library) or `relative` (BVH folder); serial, in clip order.
-  virtual bool write(const std::string& clip_path, const std::string& relative,
-                     std::any& prepared, std::string* error) = 0;
+  virtual bool write(const std::string& clip_path, const std::string& relative, std::any& prepared,
+                     std::string* error) = 0;
 };
 
 // BVH files below a folder, keeping each clip's relative path ("02/02_01.bvh").

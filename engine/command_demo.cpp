@@ -18,7 +18,8 @@ namespace fs = std::filesystem;
 
 int run_demo(const DemoCommand& command) {
   const fs::path root(command.output_dir);
-  const fs::path truth_dir = root / "ground_truth", noisy_dir = root / "noisy", clean_dir = root / "cleaned";
+  const fs::path truth_dir = root / "ground_truth", noisy_dir = root / "noisy",
+                 clean_dir = root / "cleaned";
   const FilterSettings settings = command.filter.settings();
   if (const Status s = settings.validate(); !s.ok()) {
     fmt::print(stderr, "mocap-clean: demo: {}\n", s.message());
@@ -33,7 +34,8 @@ int run_demo(const DemoCommand& command) {
     io::Clip noisy = demo.clip;
     add_noise(GaussianNoise{command.noise_sigma, command.seed + i}, noisy.rotation_span());
     std::string error;
-    for (const auto& [dir, clip] : {std::pair{truth_dir, &demo.clip}, std::pair{noisy_dir, static_cast<const io::Clip*>(&noisy)}}) {
+    for (const auto& [dir, clip] : {std::pair{truth_dir, &demo.clip},
+                                    std::pair{noisy_dir, static_cast<const io::Clip*>(&noisy)}}) {
       const fs::path target = dir / demo.relative_path;
       std::error_code ec;
       fs::create_directories(target.parent_path(), ec);
@@ -47,8 +49,10 @@ int run_demo(const DemoCommand& command) {
     noisy_clips.push_back(std::move(noisy));
   }
   if (!command.run.json)
-    fmt::print("demo: wrote {} procedural clips to {} and noisy copies (gaussian, sigma {} rad, seed {}) to {}\n",
-               library.size(), truth_dir.string(), command.noise_sigma, command.seed, noisy_dir.string());
+    fmt::print(
+        "demo: wrote {} procedural clips to {} and noisy copies (gaussian, sigma {} rad, seed {}) "
+        "to {}\n",
+        library.size(), truth_dir.string(), command.noise_sigma, command.seed, noisy_dir.string());
 
   RunSummary summary = clean_files(noisy_files, clean_dir.string(), settings, command.run);
   summary.command = "demo";
@@ -64,9 +68,12 @@ int run_demo(const DemoCommand& command) {
     if (!cleaned.clip) continue;  // reported as a failure by clean_files
     const double before = psnr(noisy_clips[i].rotation_view(), demo.clip.rotation_view());
     const double after = psnr(cleaned.clip->rotation_view(), demo.clip.rotation_view());
-    scores.push_back({{"clip", demo.relative_path}, {"noisy_psnr_db", before}, {"cleaned_psnr_db", after},
-                      {"noisy_rmse_rad", rmse(noisy_clips[i].rotation_view(), demo.clip.rotation_view())},
-                      {"cleaned_rmse_rad", rmse(cleaned.clip->rotation_view(), demo.clip.rotation_view())}});
+    scores.push_back(
+        {{"clip", demo.relative_path},
+         {"noisy_psnr_db", before},
+         {"cleaned_psnr_db", after},
+         {"noisy_rmse_rad", rmse(noisy_clips[i].rotation_view(), demo.clip.rotation_view())},
+         {"cleaned_rmse_rad", rmse(cleaned.clip->rotation_view(), demo.clip.rotation_view())}});
     if (!command.run.json)
       fmt::print("{:<26} {:>7} {:>7} {:>10.2f} dB {:>10.2f} dB {:>+5.2f} dB\n", demo.relative_path,
                  demo.clip.frames, demo.clip.joints(), before, after, after - before);

@@ -55,8 +55,8 @@ std::vector<std::size_t> pending(const ClipSource& source, const PartedOutput& o
 }
 
 // Runs `job` into the library sink, joins the parts, reports. Shared by import, filter, noise.
-int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, io::Provenance provenance,
-                     const std::string& command) {
+int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out,
+                     io::Provenance provenance, const std::string& command) {
   std::size_t skipped = 0;
   job.selection = pending(*job.source, sink.output(), &skipped);
   if (job.selection.empty() && job.source->count() > 0 && skipped == 0)
@@ -110,7 +110,8 @@ int run_import(const ImportCommand& command) {
   const SourceList sources = collect_bvh_sources(command.sources);
   for (const auto& e : sources.errors) fmt::print(stderr, "mocap-clean: import: {}\n", e);
   if (!sources.errors.empty()) return 2;
-  if (sources.files.empty()) return usage_error("import", "no .bvh files found in the given sources");
+  if (sources.files.empty())
+    return usage_error("import", "no .bvh files found in the given sources");
   std::string error;
   auto sink = open_library_sink(command.output, &error);
   if (!sink) return usage_error("import", error);
@@ -122,8 +123,8 @@ int run_import(const ImportCommand& command) {
   job.run = command.run;
   std::string inputs;
   for (const auto& s : command.sources) inputs += (inputs.empty() ? "" : " ") + s;
-  return run_into_library(job, *sink, command.output, make_provenance("import", nlohmann::json::object(), inputs),
-                          "import");
+  return run_into_library(job, *sink, command.output,
+                          make_provenance("import", nlohmann::json::object(), inputs), "import");
 }
 
 int run_filter(const FilterCommand& command) {
@@ -140,9 +141,10 @@ int run_filter(const FilterCommand& command) {
   job.sink = sink.get();
   job.filter = settings;
   job.run = command.run;
-  return run_into_library(job, *sink, command.output,
-                          make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input),
-                          "filter");
+  return run_into_library(
+      job, *sink, command.output,
+      make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input),
+      "filter");
 }
 
 int run_export(const ExportCommand& command) {
@@ -192,7 +194,8 @@ int run_noise(const NoiseCommand& command) {
     if (command.model == "gaussian") {
       add_noise(GaussianNoise{command.sigma, seed}, clip.rotation_span());
     } else {
-      add_noise(ImpulseNoise{command.rate, command.min_angle, command.max_angle, seed}, clip.rotation_span());
+      add_noise(ImpulseNoise{command.rate, command.min_angle, command.max_angle, seed},
+                clip.rotation_span());
     }
     return {};
   };
@@ -204,8 +207,8 @@ int run_noise(const NoiseCommand& command) {
     parameters["min_angle"] = command.min_angle;
     parameters["max_angle"] = command.max_angle;
   }
-  return run_into_library(job, *sink, command.output, make_provenance("noise", parameters, command.input),
-                          "noise");
+  return run_into_library(job, *sink, command.output,
+                          make_provenance("noise", parameters, command.input), "noise");
 }
 
 int run_info(const InfoCommand& command) {
@@ -226,8 +229,12 @@ int run_info(const InfoCommand& command) {
     auto& s = skeletons[h.skeleton];
     s.first = h.joints;
     ++s.second;
-    clips.push_back({{"path", h.path}, {"frames", h.frames}, {"joints", h.joints},
-                     {"frame_time", h.frame_time}, {"skeleton", h.skeleton}, {"source", h.source}});
+    clips.push_back({{"path", h.path},
+                     {"frames", h.frames},
+                     {"joints", h.joints},
+                     {"frame_time", h.frame_time},
+                     {"skeleton", h.skeleton},
+                     {"source", h.source}});
   }
   nlohmann::json j;
   j["file"] = command.input;
@@ -235,11 +242,14 @@ int run_info(const InfoCommand& command) {
   j["frames"] = frames;
   j["joint_frames"] = joint_frames;
   nlohmann::json sk = nlohmann::json::array();
-  for (const auto& [name, s] : skeletons) sk.push_back({{"name", name}, {"joints", s.first}, {"clips", s.second}});
+  for (const auto& [name, s] : skeletons)
+    sk.push_back({{"name", name}, {"joints", s.first}, {"clips", s.second}});
   j["skeletons"] = sk;
   if (const auto p = reader.provenance()) {
-    j["provenance"] = {{"method", p->method}, {"parameters", nlohmann::json::parse(p->parameters_json, nullptr, false)},
-                       {"engine_version", p->engine_version}, {"input_file", p->input_file},
+    j["provenance"] = {{"method", p->method},
+                       {"parameters", nlohmann::json::parse(p->parameters_json, nullptr, false)},
+                       {"engine_version", p->engine_version},
+                       {"input_file", p->input_file},
                        {"created", p->created}};
   }
   j["unreadable"] = unreadable;
@@ -248,23 +258,24 @@ int run_info(const InfoCommand& command) {
     fmt::print("{}\n", j.dump());
     return unreadable.empty() ? 0 : 1;
   }
-  fmt::print("{}: {} clips, {} frames, {} joint-frames\n", command.input, j["clips"].get<std::size_t>(),
-             frames, joint_frames);
+  fmt::print("{}: {} clips, {} frames, {} joint-frames\n", command.input,
+             j["clips"].get<std::size_t>(), frames, joint_frames);
   for (const auto& s : sk)
-    fmt::print("  skeleton {}: {} joints, {} clips\n", s["name"].get<std::string>(), s["joints"].get<int>(),
-               s["clips"].get<int>());
+    fmt::print("  skeleton {}: {} joints, {} clips\n", s["name"].get<std::string>(),
+               s["joints"].get<int>(), s["clips"].get<int>());
   if (j.contains("provenance")) {
     const auto& p = j["provenance"];
-    fmt::print("  provenance: {} {} from {} ({}, {})\n", p["method"].get<std::string>(), p["parameters"].dump(),
-               p["input_file"].get<std::string>(), p["engine_version"].get<std::string>(),
-               p["created"].get<std::string>());
+    fmt::print("  provenance: {} {} from {} ({}, {})\n", p["method"].get<std::string>(),
+               p["parameters"].dump(), p["input_file"].get<std::string>(),
+               p["engine_version"].get<std::string>(), p["created"].get<std::string>());
   }
   if (command.list_clips)
     for (const auto& c : clips)
       fmt::print("  {}  {} frames x {} joints  {:.6g} s/frame\n", c["path"].get<std::string>(),
                  c["frames"].get<int>(), c["joints"].get<int>(), c["frame_time"].get<double>());
   for (const auto& u : unreadable)
-    fmt::print(stderr, "mocap-clean: info: {}: {}\n", u["clip"].get<std::string>(), u["error"].get<std::string>());
+    fmt::print(stderr, "mocap-clean: info: {}: {}\n", u["clip"].get<std::string>(),
+               u["error"].get<std::string>());
   return unreadable.empty() ? 0 : 1;
 }
 

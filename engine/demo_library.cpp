@@ -22,15 +22,15 @@ struct JointSpec {
 
 // A 21-joint humanoid, Y up, facing +Z, lengths in cm.
 constexpr JointSpec kJoints[] = {
-    {"Hips", -1, {0, 95, 0}, false},         {"Spine", 0, {0, 10, 0}, false},
-    {"Chest", 1, {0, 20, 0}, false},         {"Neck", 2, {0, 22, 0}, false},
-    {"Head", 3, {0, 10, 0}, true},           {"LeftShoulder", 2, {4, 18, 0}, false},
-    {"LeftArm", 5, {14, 0, 0}, false},       {"LeftForeArm", 6, {28, 0, 0}, false},
-    {"LeftHand", 7, {25, 0, 0}, true},       {"RightShoulder", 2, {-4, 18, 0}, false},
-    {"RightArm", 9, {-14, 0, 0}, false},     {"RightForeArm", 10, {-28, 0, 0}, false},
-    {"RightHand", 11, {-25, 0, 0}, true},    {"LeftUpLeg", 0, {9, -6, 0}, false},
-    {"LeftLeg", 13, {0, -42, 0}, false},     {"LeftFoot", 14, {0, -41, 0}, false},
-    {"LeftToe", 15, {0, -6, 13}, true},      {"RightUpLeg", 0, {-9, -6, 0}, false},
+    {"Hips", -1, {0, 95, 0}, false},      {"Spine", 0, {0, 10, 0}, false},
+    {"Chest", 1, {0, 20, 0}, false},      {"Neck", 2, {0, 22, 0}, false},
+    {"Head", 3, {0, 10, 0}, true},        {"LeftShoulder", 2, {4, 18, 0}, false},
+    {"LeftArm", 5, {14, 0, 0}, false},    {"LeftForeArm", 6, {28, 0, 0}, false},
+    {"LeftHand", 7, {25, 0, 0}, true},    {"RightShoulder", 2, {-4, 18, 0}, false},
+    {"RightArm", 9, {-14, 0, 0}, false},  {"RightForeArm", 10, {-28, 0, 0}, false},
+    {"RightHand", 11, {-25, 0, 0}, true}, {"LeftUpLeg", 0, {9, -6, 0}, false},
+    {"LeftLeg", 13, {0, -42, 0}, false},  {"LeftFoot", 14, {0, -41, 0}, false},
+    {"LeftToe", 15, {0, -6, 13}, true},   {"RightUpLeg", 0, {-9, -6, 0}, false},
     {"RightLeg", 17, {0, -42, 0}, false},
 };
 // The right foot and toe complete the legs (kept apart to keep the table above readable).
@@ -154,7 +154,8 @@ std::vector<DemoClip> make_demo_library() {
   const auto daz = make_skeleton(RotationOrder::ZXY);
   const auto cmu = make_skeleton(RotationOrder::ZYX);
   std::vector<DemoClip> clips;
-  clips.push_back({"walk/walk_120fps.bvh", make_clip(cmu, 120, 480, gait(1.1, 130, 25, 55, 20, 2))});
+  clips.push_back(
+      {"walk/walk_120fps.bvh", make_clip(cmu, 120, 480, gait(1.1, 130, 25, 55, 20, 2))});
   clips.push_back({"walk/run_120fps.bvh", make_clip(cmu, 120, 360, gait(0.7, 320, 40, 90, 35, 4))});
   clips.push_back({"gesture/wave_120fps.bvh", make_clip(daz, 120, 360, wave)});
   clips.push_back({"gesture/turn_30fps.bvh", make_clip(daz, 30, 120, turn)});

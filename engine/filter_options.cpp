@@ -15,40 +15,78 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--sigma-t", sigma_t, "bof, gaussian: temporal width in frames")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
-  cmd.add_option("--window,-k", window, "bof, gaussian: half-width k in frames (0 = ceil(3 sigma_t))")
-      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Filter");
+  cmd.add_option("--window,-k", window,
+                 "bof, gaussian: half-width k in frames (0 = ceil(3 sigma_t))")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--sigma-g", sigma_g, "bof: range width in radians (full rotation angle)")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
-  cmd.add_option("--iterations", iterations, "bof: how many times the filter runs on its own output")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
-  cmd.add_option("--kernel", kernel, "bof: gaussian, or paper (Courty's printed kernel, for comparison)")
-      ->check(CLI::IsMember({"gaussian", "paper"}))->capture_default_str()->group("Filter");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Filter");
+  cmd.add_option("--iterations", iterations,
+                 "bof: how many times the filter runs on its own output")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Filter");
+  cmd.add_option("--kernel", kernel,
+                 "bof: gaussian, or paper (Courty's printed kernel, for comparison)")
+      ->check(CLI::IsMember({"gaussian", "paper"}))
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--sigma-p", sigma_p,
                  "bof: range width for translations in the file's length unit (0 = none: Gaussian)")
-      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--search-radius,-K", search_radius, "nlpm: search window K (2K+1 poses)")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--patch-radius,-P", patch_radius, "nlpm: patch radius P (2P+1 poses)")
-      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--h", h, "nlpm: strength in radians (0 = automatic, from the estimated noise)")
-      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Filter");
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--space", space, "nlpm: tangent (default), or log (the paper, literally)")
-      ->check(CLI::IsMember({"tangent", "log"}))->capture_default_str()->group("Filter");
+      ->check(CLI::IsMember({"tangent", "log"}))
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--order", order, "butterworth: filter order n")
-      ->check(CLI::Range(1, 8))->capture_default_str()->group("Filter");
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--cutoff", cutoff, "butterworth: single-pass -3 dB cut-off in Hz")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--passes", passes, "moving-mean: passes of Blender's Smooth Keys mask")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Filter");
-  cmd.add_option("--boundary", boundary, "samples beyond the clip's ends: mirror, hold, extrapolate")
-      ->check(CLI::IsMember({"mirror", "hold", "extrapolate"}))->capture_default_str()->group("Filter");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Filter");
+  cmd.add_option("--boundary", boundary,
+                 "samples beyond the clip's ends: mirror, hold, extrapolate")
+      ->check(CLI::IsMember({"mirror", "hold", "extrapolate"}))
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--translations", translations, "filter the position channels too, or keep them")
-      ->check(CLI::IsMember({"filter", "keep"}))->capture_default_str()->group("Filter");
+      ->check(CLI::IsMember({"filter", "keep"}))
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--shard-joints", shard_joints, "joints per task (per-joint methods)")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Engine");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Engine");
   cmd.add_option("--shard-frames", shard_frames, "frames per task (nlpm)")
-      ->check(CLI::PositiveNumber)->capture_default_str()->group("Engine");
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Engine");
 }
 
 FilterSettings FilterOptions::settings() const {
@@ -80,10 +118,14 @@ FilterSettings FilterOptions::settings() const {
 }
 
 void RunOptions::add_to(CLI::App& cmd) {
-  cmd.add_option("--threads,-j", threads, "worker threads (0 = all cores); output is identical for any count")
-      ->check(CLI::NonNegativeNumber)->capture_default_str()->group("Engine");
+  cmd.add_option("--threads,-j", threads,
+                 "worker threads (0 = all cores); output is identical for any count")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str()
+      ->group("Engine");
   cmd.add_flag("--json", json, "print a machine-readable summary on stdout")->group("Engine");
-  cmd.add_flag("!--no-progress", progress, "no progress bar (it is shown only on a terminal anyway)")
+  cmd.add_flag("!--no-progress", progress,
+               "no progress bar (it is shown only on a terminal anyway)")
       ->group("Engine");
 }
 

@@ -21,12 +21,18 @@ std::optional<Method> parse_method(std::string_view name) {
 
 std::string_view to_string(Method method) {
   switch (method) {
-    case Method::none: return "none";
-    case Method::bof: return "bof";
-    case Method::nlpm: return "nlpm";
-    case Method::gaussian: return "gaussian";
-    case Method::butterworth: return "butterworth";
-    case Method::moving_mean: return "moving-mean";
+    case Method::none:
+      return "none";
+    case Method::bof:
+      return "bof";
+    case Method::nlpm:
+      return "nlpm";
+    case Method::gaussian:
+      return "gaussian";
+    case Method::butterworth:
+      return "butterworth";
+    case Method::moving_mean:
+      return "moving-mean";
   }
   return "?";
 }
@@ -45,8 +51,10 @@ Status FilterSettings::validate() const {
   if (shard_joints < 1) return Status::error("shard joints must be >= 1");
   if (shard_frames < 1) return Status::error("shard frames must be >= 1");
   switch (method) {
-    case Method::none: return {};
-    case Method::bof: return bilateral.validate();
+    case Method::none:
+      return {};
+    case Method::bof:
+      return bilateral.validate();
     case Method::nlpm: {
       NlpmParams p = nlpm;
       if (p.h == 0) p.h = 1;  // automatic: checked per clip
@@ -65,7 +73,8 @@ nlohmann::json FilterSettings::to_json() const {
   j["method"] = std::string(to_string(method));
   j["translations"] = filter_translations ? "filter" : "keep";
   switch (method) {
-    case Method::none: break;
+    case Method::none:
+      break;
     case Method::bof:
       j["sigma_t"] = bilateral.sigma_t;
       j["sigma_g"] = bilateral.sigma_g;
@@ -166,10 +175,14 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
   io.frame_end = shard.frame_end;
 
   switch (s.method) {
-    case Method::bof: return BilateralJob{s.bilateral, io}.run();
-    case Method::nlpm: return NlpmJob{s.nlpm, io, {}}.run();
-    case Method::none: return {};
-    default: return LinearFilterJob{s.linear, io}.run();
+    case Method::bof:
+      return BilateralJob{s.bilateral, io}.run();
+    case Method::nlpm:
+      return NlpmJob{s.nlpm, io, {}}.run();
+    case Method::none:
+      return {};
+    default:
+      return LinearFilterJob{s.linear, io}.run();
   }
 }
 

@@ -29,10 +29,10 @@ struct FilterSettings {
   Method method = Method::none;
   BilateralParams bilateral;
   LinearParams linear;
-  NlpmParams nlpm;                 // h == 0: derived per clip from the estimated noise
-  bool filter_translations = true; // --translations filter|keep
-  int shard_joints = 8;            // joint block of per-joint methods
-  int shard_frames = 256;          // time block of nlpm
+  NlpmParams nlpm;                  // h == 0: derived per clip from the estimated noise
+  bool filter_translations = true;  // --translations filter|keep
+  int shard_joints = 8;             // joint block of per-joint methods
+  int shard_frames = 256;           // time block of nlpm
 
   Status validate() const;
   nlohmann::json to_json() const;  // parameters as recorded in provenance

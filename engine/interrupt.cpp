@@ -1,7 +1,7 @@
 #include "engine/interrupt.hpp"
 
-#include <csignal>
 #include <unistd.h>
+#include <csignal>
 
 namespace mocap::engine {
 namespace {
@@ -10,7 +10,8 @@ std::atomic<bool> g_interrupted{false};  // a signal handler can only reach proc
 
 extern "C" void on_signal(int signal) {
   if (g_interrupted.exchange(true)) _exit(128 + signal);
-  constexpr char message[] = "\nmocap-clean: interrupted: finishing the clips in flight (again to abort)\n";
+  constexpr char message[] =
+      "\nmocap-clean: interrupted: finishing the clips in flight (again to abort)\n";
   [[maybe_unused]] auto n = write(STDERR_FILENO, message, sizeof(message) - 1);
 }
 
@@ -26,6 +27,8 @@ const std::atomic<bool>& install_interrupt_handler() {
   return g_interrupted;
 }
 
-bool interrupted() { return g_interrupted.load(); }
+bool interrupted() {
+  return g_interrupted.load();
+}
 
 }  // namespace mocap::engine

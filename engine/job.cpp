@@ -6,6 +6,7 @@
 #include <numeric>
 #include <optional>
 
+#include "engine/clip_checks.hpp"
 #include "engine/interrupt.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/progress.hpp"
@@ -33,8 +34,10 @@ RunSummary run_job(const Job& job) {
   }
 
   std::optional<tbb::global_control> limit;
-  if (job.run.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, job.run.threads);
-  summary.threads = int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  if (job.run.threads > 0)
+    limit.emplace(tbb::global_control::max_allowed_parallelism, job.run.threads);
+  summary.threads =
+      int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 
   Progress progress(job.label, selection.size(),
                     job.run.progress && !job.run.json && Progress::stderr_is_terminal());
@@ -50,6 +53,13 @@ RunSummary run_job(const Job& job) {
     item.input = std::move(*clip);
   };
   stages.split = [&](WorkItem& item) -> std::vector<Shard> {
+    if (std::string why = check_clip_values(item.input); !why.empty()) {
+      item.fail(why);
+      return {};
+    }
+    // Filters expect each joint's curve on one hemisphere (spec "Sign continuity"); a library
+    // written by another tool may not be. Same rotations, so harmless for `none`.
+    make_hemisphere_continuous(item.input.rotation_span());
     ClipState state{resolve_for_clip(settings, item.input), {}};
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
@@ -80,8 +90,8 @@ RunSummary run_job(const Job& job) {
     if (item.error.empty()) {
       std::string error;
       auto& state = std::any_cast<ClipState&>(item.context);
-      if (!job.sink->write(job.source->clip_path(index), job.source->relative_path(index), state.prepared,
-                            &error))
+      if (!job.sink->write(job.source->clip_path(index), job.source->relative_path(index),
+                           state.prepared, &error))
         item.fail(error);
     }
     if (item.error.empty()) {

@@ -14,7 +14,7 @@
 namespace mocap::engine {
 
 struct Job {
-  std::string label;                 // "clean", "filter", ... (summary and progress bar)
+  std::string label;  // "clean", "filter", ... (summary and progress bar)
   ClipSource* source = nullptr;
   ClipSink* sink = nullptr;
   std::vector<std::size_t> selection;  // source indices to run; empty = all

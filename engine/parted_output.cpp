@@ -48,7 +48,8 @@ std::unique_ptr<PartedOutput> PartedOutput::open(const PartedOutputOptions& opti
   std::error_code ec;
   if (fs::exists(dir, ec) && !options.resume) {
     fail(error, fmt::format("{} holds the parts of an unfinished run: add --resume to complete it, "
-                            "or delete the folder to start again", dir.string()));
+                            "or delete the folder to start again",
+                            dir.string()));
     return nullptr;
   }
   fs::create_directories(dir, ec);
@@ -81,7 +82,8 @@ std::vector<fs::path> PartedOutput::committed_parts() const {
   return parts;
 }
 
-bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip, std::string* error) {
+bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip,
+                       std::string* error) {
   if (!current_) {
     current_path_ = parts_dir() / fmt::format("part-{}-{:06d}.h5", options_.tag, next_part_++);
     const fs::path tmp = current_path_.string() + ".tmp";
@@ -93,7 +95,8 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
   if (!current_->write_encoded(clip_path, clip, error)) return false;
   done_.insert(clip_path);
   ++clips_in_current_;
-  const double age = std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_at_).count();
+  const double age =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_at_).count();
   if (clips_in_current_ >= options_.clips_per_part || age >= options_.seconds_per_part)
     return commit(error);
   return true;

@@ -23,10 +23,10 @@ struct PartedOutputOptions {
   std::filesystem::path output;
   io::Compression compression = io::Compression::lz4;
   bool resume = false;
-  std::string tag = "p";              // distinguishes writers sharing OUT.parts (ranks, shards)
+  std::string tag = "p";  // distinguishes writers sharing OUT.parts (ranks, shards)
   int clips_per_part = 256;
-  double seconds_per_part = 5.0;       // a part is committed at least this often
-  bool keep_master_current = true;     // rewrite OUT's links after each commit
+  double seconds_per_part = 5.0;    // a part is committed at least this often
+  bool keep_master_current = true;  // rewrite OUT's links after each commit
 };
 
 class PartedOutput {

@@ -24,12 +24,12 @@ namespace mocap::engine {
 // One clip travelling through the graph.
 struct WorkItem {
   std::size_t index = 0;
-  std::string name;      // how the clip is named in messages (its source path)
+  std::string name;  // how the clip is named in messages (its source path)
   io::Clip input;
   io::Clip output;
-  std::string error;     // non-empty: the clip failed and is skipped by later stages
+  std::string error;  // non-empty: the clip failed and is skipped by later stages
   std::atomic<int> shards_left{0};
-  std::any context;      // what the command's stages keep per clip (e.g. resolved parameters)
+  std::any context;  // what the command's stages keep per clip (e.g. resolved parameters)
 
   // Records the first failure; safe from concurrent shards.
   void fail(const std::string& message) {
@@ -62,8 +62,9 @@ struct PipelineStages {
 };
 
 struct PipelineOptions {
-  int max_clips_in_flight = 0;          // 0 = 4 x threads
-  const std::atomic<bool>* cancel = nullptr;  // when set, no new clip is read; in-flight clips finish
+  int max_clips_in_flight = 0;  // 0 = 4 x threads
+  const std::atomic<bool>* cancel =
+      nullptr;  // when set, no new clip is read; in-flight clips finish
 };
 
 // Runs the graph in the calling thread's TBB arena (limit threads with a tbb::global_control or

@@ -12,9 +12,13 @@ Progress::Progress(std::string label, std::size_t total_clips, bool enabled)
   start_ = last_draw_ = std::chrono::steady_clock::now();
 }
 
-Progress::~Progress() { finish(); }
+Progress::~Progress() {
+  finish();
+}
 
-bool Progress::stderr_is_terminal() { return isatty(STDERR_FILENO) == 1; }
+bool Progress::stderr_is_terminal() {
+  return isatty(STDERR_FILENO) == 1;
+}
 
 void Progress::advance(std::size_t frames, bool failed) {
   ++done_;
@@ -35,14 +39,16 @@ void Progress::finish() {
 }
 
 void Progress::draw(bool final_draw) {
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   const double fraction = total_ ? double(done_) / double(total_) : 1.0;
   constexpr int width = 28;
   const int filled = int(fraction * width);
   const std::string bar = std::string(filled, '#') + std::string(width - filled, '.');
   const double fps = seconds > 0 ? double(frames_) / seconds : 0.0;
   const double eta = done_ > 0 ? seconds * double(total_ - done_) / double(done_) : 0.0;
-  std::string line = fmt::format("\r{} [{}] {}/{} clips  {:.0f} frames/s  ", label_, bar, done_, total_, fps);
+  std::string line =
+      fmt::format("\r{} [{}] {}/{} clips  {:.0f} frames/s  ", label_, bar, done_, total_, fps);
   line += final_draw ? fmt::format("{:.1f} s", seconds) : fmt::format("ETA {:.0f} s", eta);
   if (failed_) line += fmt::format("  {} failed", failed_);
   line += "\x1b[K";

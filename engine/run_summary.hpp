@@ -14,12 +14,12 @@ struct ClipFailure {
 
 struct RunSummary {
   std::string command;
-  std::size_t clips = 0;          // clips written
-  std::size_t frames = 0;         // frames of the clips written
-  std::size_t joints = 0;         // joint curves of the clips written (sum of J over clips)
-  std::size_t joint_frames = 0;   // sum of F x J over the clips written
+  std::size_t clips = 0;         // clips written
+  std::size_t frames = 0;        // frames of the clips written
+  std::size_t joints = 0;        // joint curves of the clips written (sum of J over clips)
+  std::size_t joint_frames = 0;  // sum of F x J over the clips written
   int threads = 0;
-  double seconds = 0;             // wall time of the whole command
+  double seconds = 0;  // wall time of the whole command
   bool interrupted = false;
   std::vector<ClipFailure> failed;
   nlohmann::json extra = nlohmann::json::object();  // command-specific fields

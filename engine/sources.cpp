@@ -9,7 +9,8 @@ namespace {
 
 bool has_bvh_extension(const std::filesystem::path& p) {
   std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext == ".bvh";
 }
 
@@ -27,7 +28,8 @@ SourceList collect_bvh_sources(const std::vector<std::string>& arguments) {
     std::error_code ec;
     const fs::path path(arg);
     if (fs::is_directory(path, ec)) {
-      for (auto it = fs::recursive_directory_iterator(path, fs::directory_options::skip_permission_denied, ec);
+      for (auto it = fs::recursive_directory_iterator(
+               path, fs::directory_options::skip_permission_denied, ec);
            !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
         if (it->is_regular_file(ec) && has_bvh_extension(it->path()))
           add(it->path(), it->path().lexically_relative(path));

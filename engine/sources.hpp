@@ -8,13 +8,13 @@
 namespace mocap::engine {
 
 struct SourceFile {
-  std::filesystem::path path;      // as found on disk
-  std::string relative;            // output-relative path with '/', e.g. "02/02_01.bvh"
+  std::filesystem::path path;  // as found on disk
+  std::string relative;        // output-relative path with '/', e.g. "02/02_01.bvh"
 };
 
 struct SourceList {
-  std::vector<SourceFile> files;   // sorted by relative path, duplicates removed
-  std::vector<std::string> errors; // arguments that are neither a .bvh file nor a folder
+  std::vector<SourceFile> files;    // sorted by relative path, duplicates removed
+  std::vector<std::string> errors;  // arguments that are neither a .bvh file nor a folder
 };
 
 // A file argument keeps its own name; a folder argument contributes every *.bvh below it

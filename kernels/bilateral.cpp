@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <string>
 
+#include "kernels/simd/bilateral_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
 namespace mocap {
@@ -111,6 +112,8 @@ void bilateral_filter_rotations(std::span<const Quat> curve, const BilateralPara
 
 Status BilateralJob::validate() const {
   if (Status s = io.validate(); !s) return s;
+  if (implementation != Implementation::fast && implementation != Implementation::reference)
+    return Status::error("unknown implementation");
   return params.validate();
 }
 
@@ -119,11 +122,15 @@ Status BilateralJob::run() const {
   const int frames = io.rotations.frames;
   const int begin = io.frame_begin, end = io.frame_stop();
   CurveScratch scratch;
-  std::vector<Quat> curve(frames), out(frames);
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
-    bilateral_filter_rotations(curve, params, out, begin, end, scratch);
-    for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
+  if (implementation == Implementation::fast) {
+    simd::bilateral_rotations(params, io);
+  } else {
+    std::vector<Quat> curve(frames), out(frames);
+    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+      for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
+      bilateral_filter_rotations(curve, params, out, begin, end, scratch);
+      for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
+    }
   }
 
   if (!io.has_translations()) return {};

@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "kernels/boundary.hpp"
+#include "kernels/implementation.hpp"
 #include "kernels/lee_shin.hpp"
 #include "kernels/motion_io.hpp"
 #include "kernels/status.hpp"
@@ -51,6 +52,9 @@ void bilateral_filter_rotations(std::span<const Quat> curve, const BilateralPara
 struct BilateralJob {
   BilateralParams params;
   MotionIO io;
+  // fast: the SIMD rotations of kernels/simd/bilateral_simd.hpp (float32); reference: the double
+  // passes above. Translations take the same (scalar) path either way.
+  Implementation implementation = Implementation::fast;
 
   Status validate() const;
   // Writes joints [io.joint_begin, io.joint_stop()) of frames [io.frame_begin, io.frame_stop()).

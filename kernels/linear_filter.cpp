@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <string>
 
+#include "kernels/simd/lee_shin_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
 namespace mocap {
@@ -81,6 +82,8 @@ void linear_filter_rotations(std::span<const Quat> curve, std::span<const double
 Status LinearFilterJob::validate() const {
   if (Status s = io.validate(); !s) return s;
   if (Status s = params.validate(); !s) return s;
+  if (implementation != Implementation::fast && implementation != Implementation::reference)
+    return Status::error("unknown implementation");
   if (params.kind == LinearKind::butterworth) {
     const MaskResult mask = linear_mask(params, io.frame_time);
     if (!mask.error.empty()) return Status::error(mask.error);
@@ -89,8 +92,7 @@ Status LinearFilterJob::validate() const {
 }
 
 Status LinearFilterJob::run() const {
-  if (Status s = io.validate(); !s) return s;
-  if (Status s = params.validate(); !s) return s;
+  if (Status s = validate(); !s) return s;
   const MaskResult mask = linear_mask(params, io.frame_time);
   if (!mask.error.empty()) return Status::error(mask.error);
   const int passes = linear_passes(params);
@@ -98,11 +100,15 @@ Status LinearFilterJob::run() const {
   const int frames = io.rotations.frames;
   const int begin = io.frame_begin, end = io.frame_stop();
   CurveScratch scratch;
-  std::vector<Quat> curve(frames), out(frames);
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
-    linear_filter_rotations(curve, mask.mask, passes, params.boundary, out, begin, end, scratch);
-    for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
+  if (implementation == Implementation::fast) {
+    simd::lee_shin_rotations(mask.mask, passes, params.boundary, io);
+  } else {
+    std::vector<Quat> curve(frames), out(frames);
+    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+      for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
+      linear_filter_rotations(curve, mask.mask, passes, params.boundary, out, begin, end, scratch);
+      for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
+    }
   }
 
   if (!io.has_translations()) return {};

@@ -5,6 +5,7 @@
 #include <span>
 
 #include "kernels/boundary.hpp"
+#include "kernels/implementation.hpp"
 #include "kernels/lee_shin.hpp"
 #include "kernels/linear_masks.hpp"
 #include "kernels/motion_io.hpp"
@@ -41,6 +42,9 @@ void linear_filter_rotations(std::span<const Quat> curve, std::span<const double
 struct LinearFilterJob {
   LinearParams params;
   MotionIO io;
+  // fast: the SIMD rotations of kernels/simd/lee_shin_simd.hpp (float32); reference: the double
+  // passes above. Translations take the same (scalar) path either way.
+  Implementation implementation = Implementation::fast;
 
   Status validate() const;
   // Writes joints [io.joint_begin, io.joint_stop()) of frames [io.frame_begin, io.frame_stop()).

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "kernels/simd/nlpm_simd.hpp"
+
 namespace mocap {
 namespace {
 
@@ -169,6 +171,8 @@ Status NlpmJob::validate() const {
     return Status::error("h must be > 0 rad to run nlpm, got " + number(params.h) +
                          " (derive it from the clip's noise level first)");
   if (Status s = io.validate(); !s) return s;
+  if (implementation != Implementation::fast && implementation != Implementation::reference)
+    return Status::error("unknown implementation");
   return check_mask(distance_joints, io.rotations.joints);
 }
 
@@ -178,6 +182,10 @@ Status NlpmJob::run() const {
   if (io.frame_begin == io.frame_stop() || io.joint_begin == io.joint_stop()) return {};
   if (frames == 1) {
     copy_slice(io);
+    return {};
+  }
+  if (implementation == Implementation::fast && params.space == NlpmSpace::tangent) {
+    simd::nlpm_tangent(*this);
     return {};
   }
   const int search = std::min(params.search_radius, frames - 1);

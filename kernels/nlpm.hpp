@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "kernels/boundary.hpp"
+#include "kernels/implementation.hpp"
 #include "kernels/motion_io.hpp"
 #include "kernels/pose_distance.hpp"
 #include "kernels/status.hpp"
@@ -50,6 +51,9 @@ struct NlpmJob {
   // Empty = all joints count in e(u, v); else one entry per joint, nonzero = a distance joint.
   // Every joint is filtered either way; the mask only chooses what the weights look at.
   std::span<const std::uint8_t> distance_joints;
+  // fast: kernels/simd/nlpm_simd.hpp (float32 band and averaging, double weights) for the tangent
+  // space; the log space (comparison only) always runs the reference below.
+  Implementation implementation = Implementation::fast;
 
   // params.validate(), h > 0, io.validate(), the mask's size and that it marks a joint.
   Status validate() const;

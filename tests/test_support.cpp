@@ -1,7 +1,13 @@
 #include "tests/test_support.hpp"
 
+#include <sys/wait.h>
+#include <unistd.h>
 #include <algorithm>
+
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
 
 namespace mocap::test {
 
@@ -32,7 +38,8 @@ std::vector<float> random_motion(std::mt19937_64& rng, int frames, int joints, d
   for (int j = 0; j < joints; ++j) {
     const Quat base = random_rotation(rng);
     Vec3 amp[3], freq, phase;
-    for (auto& a : amp) a = {u(rng) * amplitude / 3, u(rng) * amplitude / 3, u(rng) * amplitude / 3};
+    for (auto& a : amp)
+      a = {u(rng) * amplitude / 3, u(rng) * amplitude / 3, u(rng) * amplitude / 3};
     freq = {0.01 + 0.05 * std::abs(u(rng)), 0.01 + 0.05 * std::abs(u(rng)),
             0.01 + 0.05 * std::abs(u(rng))};
     phase = {3 * u(rng), 3 * u(rng), 3 * u(rng)};
@@ -65,6 +72,48 @@ ErrorStats rotation_errors(RotationView a, RotationView b) {
   return s;
 }
 
-std::filesystem::path cli_path() { return MOCAP_CLI_PATH; }
+std::filesystem::path cli_path() {
+  return MOCAP_CLI_PATH;
+}
+
+std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TempDir::TempDir(const std::string& tag) {
+  std::string pattern =
+      (std::filesystem::temp_directory_path() / ("mocap-" + tag + "-XXXXXX")).string();
+  if (!mkdtemp(pattern.data())) throw std::runtime_error("mkdtemp failed");
+  path_ = pattern;
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  std::filesystem::remove_all(path_, ec);
+}
+
+CommandResult run_cli(const std::string& arguments) {
+  static int counter = 0;
+  std::string err_name = "mocap-cli-stderr-";
+  err_name.append(std::to_string(getpid())).append("-").append(std::to_string(counter++));
+  const auto err_file = std::filesystem::temp_directory_path() / err_name;
+  std::string command;  // appended piecewise: GCC 12 warns falsely (-Wrestrict) on a + chain
+  command.append("'").append(cli_path().string()).append("' ").append(arguments);
+  command.append(" 2>'").append(err_file.string()).append("'");
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return result;
+  char buffer[4096];
+  std::size_t n;
+  while ((n = fread(buffer, 1, sizeof buffer, pipe)) > 0) result.out.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.err = read_text(err_file);
+  std::filesystem::remove(err_file);
+  return result;
+}
 
 }  // namespace mocap::test

@@ -2,6 +2,7 @@
 // Shared helpers of the test suite: where the real clips are, random motions, comparisons.
 #include <filesystem>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "kernels/quaternion.hpp"
@@ -15,9 +16,9 @@ std::filesystem::path shared_bvh_dir();
 std::vector<std::filesystem::path> shared_bvh_files();
 
 // Skip the current test with a clear message when ../shared/data/bvh is absent.
-#define MOCAP_REQUIRE_SHARED_CLIPS()                                                          \
-  do {                                                                                         \
-    if (::mocap::test::shared_bvh_files().empty())                                             \
+#define MOCAP_REQUIRE_SHARED_CLIPS()                                                             \
+  do {                                                                                           \
+    if (::mocap::test::shared_bvh_files().empty())                                               \
       GTEST_SKIP() << "../shared/data/bvh not found beside the project: real-clip test skipped"; \
   } while (0)
 
@@ -38,5 +39,29 @@ ErrorStats rotation_errors(RotationView a, RotationView b);
 
 // Path of the mocap-clean executable built with the tests.
 std::filesystem::path cli_path();
+
+// Runs `arguments` (shell syntax) with the mocap-clean executable, capturing both streams.
+struct CommandResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+CommandResult run_cli(const std::string& arguments);
+
+// A fresh empty folder below the system's temporary folder, removed by the destructor.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& tag);
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// Reads a whole file as text ("" when missing).
+std::string read_text(const std::filesystem::path& path);
 
 }  // namespace mocap::test

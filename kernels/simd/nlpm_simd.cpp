@@ -1,0 +1,260 @@
+// nlpm's fast path (nlpm_simd.hpp): the vector kernels are compiled once per Highway target; the
+// per-frame bookkeeping between them (box sums, weights) is plain double code, once.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "kernels/simd/nlpm_simd.cpp"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "hwy/highway.h"
+#include "kernels/simd/nlpm_simd.hpp"
+#include "kernels/simd/planes.hpp"
+#include "kernels/simd/quat_simd-inl.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace mocap::simd::HWY_NAMESPACE {
+
+void AccumulatePoseBand(const float* planes, std::size_t stride, std::size_t count, int max_delta,
+                        float* band) {
+  const hn::ScalableTag<float> d;
+  const std::size_t lanes = hn::Lanes(d);
+  for (std::size_t u = 0; u < count; u += lanes) {
+    const auto a = LoadQuat(d, planes, stride, u);
+    for (std::size_t delta = 1; delta <= std::size_t(max_delta); ++delta) {
+      const auto dist = Geodesic(d, a, LoadQuat(d, planes, stride, u + delta));
+      float* row = band + (delta - 1) * stride + u;
+      hn::StoreU(hn::MulAdd(dist, dist, hn::LoadU(d, row)), d, row);
+    }
+  }
+}
+
+// Output frames i in [0, count) of one joint, whose curve `planes` starts `search` frames before
+// the first output frame:
+//   q'_i = q_i Exp( inv_sum_i sum_{delta != 0} weights[delta + K][i] Log(q_i^-1 q_{i+delta}) ).
+// Rows of `weights` and inv_sum have stride `wstride`; out: 4 planes of `stride`.
+void AverageTangent(const float* planes, std::size_t stride, std::size_t count, int search,
+                    const float* weights, const float* inv_sum, std::size_t wstride, float* out) {
+  const hn::ScalableTag<float> d;
+  using V = hn::Vec<decltype(d)>;
+  const std::size_t lanes = hn::Lanes(d), k = std::size_t(search);
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const QuatV<V> qt = LoadQuat(d, planes, stride, i + k);
+    Vec3V<V> acc{hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+    for (std::size_t s = 0; s <= 2 * k; ++s) {  // s = delta + K, delta = 0 adds Log(1) = 0
+      if (s == k) continue;
+      const V f = hn::LoadU(d, weights + s * wstride + i);
+      const Vec3V<V> v = Log(d, InverseTimes(qt, LoadQuat(d, planes, stride, i + s)));
+      acc = {hn::MulAdd(f, v.x, acc.x), hn::MulAdd(f, v.y, acc.y), hn::MulAdd(f, v.z, acc.z)};
+    }
+    const V scale = hn::LoadU(d, inv_sum + i);
+    const Vec3V<V> mean{hn::Mul(acc.x, scale), hn::Mul(acc.y, scale), hn::Mul(acc.z, scale)};
+    StoreQuat(d, Multiply(qt, Exp(d, mean)), out, stride, i);
+  }
+}
+
+}  // namespace mocap::simd::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace mocap::simd {
+
+HWY_EXPORT(AccumulatePoseBand);
+HWY_EXPORT(AverageTangent);
+
+void accumulate_pose_band(const float* planes, std::size_t stride, std::size_t count, int max_delta,
+                          float* band) {
+  HWY_DYNAMIC_DISPATCH(AccumulatePoseBand)(planes, stride, count, max_delta, band);
+}
+
+namespace {
+
+// Frames per pass over the band, as kernels/nlpm.cpp: whole anchor blocks.
+constexpr long kChunkFrames = 16 * kNlpmAnchorFrames;
+
+void put(std::vector<float>& planes, std::size_t stride, std::size_t i, const float* q) {
+  for (std::size_t c = 0; c < 4; ++c) planes[c * stride + i] = q[c];
+}
+
+// The distance joints' squared distances summed, then E[u][delta] = e(u, u + delta) in double,
+// for u in [u_begin, u_end), 0 <= delta <= K; the lower half by symmetry.
+class Band {
+ public:
+  void compute(RotationView rotations, const std::vector<int>& joints, Boundary boundary,
+               long u_begin, long u_end, int search) {
+    u_begin_ = u_begin;
+    search_ = search;
+    const std::size_t count = std::size_t(u_end - u_begin);
+    const std::size_t stride = plane_size(count + std::size_t(search) + kMaxLanes);
+    planes_.assign(4 * stride, 0.0f);
+    std::fill_n(planes_.begin(), stride, 1.0f);  // identities past the end
+    sums_.assign(std::size_t(search) * stride, 0.0f);
+    for (int joint : joints) {
+      for (std::size_t i = 0; i < count + std::size_t(search); ++i) {
+        const long t = u_begin + long(i);
+        if (t >= 0 && t < rotations.frames) {
+          put(planes_, stride, i, rotations.at(int(t), joint));
+        } else {
+          float q[4];
+          store_quat(extended_rotation(rotations, joint, t, boundary), q);
+          put(planes_, stride, i, q);
+        }
+      }
+      accumulate_pose_band(planes_.data(), stride, count, search, sums_.data());
+    }
+    width_ = std::size_t(search) + 1;
+    values_.resize(count * width_);
+    const double joint_count = double(joints.size());
+    for (std::size_t u = 0; u < count; ++u) {
+      values_[u * width_] = 0.0;  // e(u, u)
+      for (std::size_t delta = 1; delta < width_; ++delta)
+        values_[u * width_ + delta] = double(sums_[(delta - 1) * stride + u]) / joint_count;
+    }
+  }
+
+  double at(long u, int delta) const {
+    if (delta < 0) {
+      u += delta;
+      delta = -delta;
+    }
+    return values_[std::size_t(u - u_begin_) * width_ + std::size_t(delta)];
+  }
+
+ private:
+  std::vector<float> planes_, sums_;
+  std::vector<double> values_;
+  long u_begin_ = 0;
+  int search_ = 0;
+  std::size_t width_ = 0;
+};
+
+// The weights of frame t from its patch sums, as kernels/nlpm.cpp's window_weights: f(t, s) for s
+// in the window (0 outside [0, F)), the self weight max_{s != t} f, and their sum.
+double window_weights(long t, long frames, int search, int patch, double h,
+                      const std::vector<double>& sums, double* f) {
+  const long s_begin = std::max(0L, t - search), s_end = std::min(frames, t + search + 1);
+  const double patch_frames = 2.0 * patch + 1.0;
+  double d_min = INFINITY;
+  for (long s = s_begin; s < s_end; ++s)
+    if (s != t) d_min = std::min(d_min, sums[std::size_t(s - t + search)] / patch_frames);
+  const double two_h2 = 2.0 * h * h;
+  double self = 0, sum = 0;
+  std::fill(f, f + 2 * search + 1, 0.0);
+  for (long s = s_begin; s < s_end; ++s) {
+    if (s == t) continue;
+    const double excess = sums[std::size_t(s - t + search)] / patch_frames - d_min;
+    const double w = excess == 0 ? 1.0 : std::exp(-excess / two_h2);
+    f[s - t + search] = w;
+    self = std::max(self, w);
+    sum += w;
+  }
+  f[search] = self;
+  return sum + self;
+}
+
+// Buffers of one chunk of output frames [begin, end).
+struct ChunkWeights {
+  std::size_t wstride = 0;
+  std::vector<double> f;       // [frame][2K + 1], for the translations
+  std::vector<float> rows;     // [2K + 1][wstride], for the vector average
+  std::vector<float> inv_sum;  // [wstride]
+  std::vector<double> inv_sum_d;
+};
+
+void average_chunk(const NlpmJob& job, int search, long begin, long end, const ChunkWeights& w,
+                   std::vector<float>& planes, std::vector<float>& out) {
+  const MotionIO& io = job.io;
+  const int frames = io.rotations.frames;
+  const std::size_t count = std::size_t(end - begin);
+  const std::size_t stride = plane_size(count + 2 * std::size_t(search) + kMaxLanes);
+  planes.assign(4 * stride, 0.0f);
+  std::fill_n(planes.begin(), stride, 1.0f);
+  out.resize(4 * stride);
+  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+    // Frames outside [0, F) get weight 0; any unit quaternion keeps their Log finite.
+    for (std::size_t i = 0; i < count + 2 * std::size_t(search); ++i) {
+      const long s = std::clamp(begin - search + long(i), 0L, long(frames) - 1);
+      put(planes, stride, i, io.rotations.at(int(s), j));
+    }
+    HWY_DYNAMIC_DISPATCH(AverageTangent)
+    (planes.data(), stride, count, search, w.rows.data(), w.inv_sum.data(), w.wstride, out.data());
+    for (std::size_t i = 0; i < count; ++i) {
+      float* q = io.filtered_rotations.at(int(begin + long(i)), j);
+      for (std::size_t c = 0; c < 4; ++c) q[c] = out[c * stride + i];
+    }
+  }
+  if (!io.has_translations()) return;
+  const std::size_t width = 2 * std::size_t(search) + 1;
+  for (long t = begin; t < end; ++t) {
+    const double* f = &w.f[std::size_t(t - begin) * width];
+    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+      if (io.translated_joints[std::size_t(j)] == 0) {
+        std::copy_n(io.translations.at(int(t), j), 3, io.filtered_translations.at(int(t), j));
+        continue;
+      }
+      Vec3 p;
+      for (long s = std::max(0L, t - search); s < std::min(long(frames), t + search + 1); ++s)
+        p += f[s - t + search] * load_vec3(io.translations.at(int(s), j));
+      store_vec3(w.inv_sum_d[std::size_t(t - begin)] * p, io.filtered_translations.at(int(t), j));
+    }
+  }
+}
+
+}  // namespace
+
+void nlpm_tangent(const NlpmJob& job) {
+  const MotionIO& io = job.io;
+  const NlpmParams& params = job.params;
+  const long frames = io.rotations.frames, frame_begin = io.frame_begin,
+             frame_end = io.frame_stop();
+  const int search = int(std::min<long>(params.search_radius, frames - 1));
+  const int patch = params.patch_radius;
+  const std::size_t width = 2 * std::size_t(search) + 1;
+  const std::vector<int> joints = nlpm_distance_joints(job.distance_joints, io.rotations.joints);
+  Band band;
+  ChunkWeights w;
+  std::vector<double> sums(width);
+  std::vector<float> planes, out;
+  const long first_anchor = frame_begin / kNlpmAnchorFrames * kNlpmAnchorFrames;
+  for (long chunk = first_anchor; chunk < frame_end; chunk += kChunkFrames) {
+    const long chunk_end = std::min(chunk + kChunkFrames, frame_end);
+    // As kernels/nlpm.cpp: D(t, t + delta) for t in the chunk reads E[u][delta] for u in
+    // [t - P, t + P], and through symmetry down to u = chunk - P - K.
+    band.compute(io.rotations, joints, params.boundary, chunk - patch - search, chunk_end + patch,
+                 search);
+    const long out_begin = std::max(chunk, frame_begin);
+    const std::size_t count = std::size_t(chunk_end - out_begin);
+    w.wstride = plane_size(count);
+    w.f.assign(count * width, 0.0);
+    w.rows.assign(width * w.wstride, 0.0f);
+    w.inv_sum.assign(w.wstride, 0.0f);
+    w.inv_sum_d.assign(count, 0.0);
+    for (long anchor = chunk; anchor < chunk_end; anchor += kNlpmAnchorFrames) {
+      const long block_end = std::min(anchor + kNlpmAnchorFrames, chunk_end);
+      for (int delta = -search; delta <= search; ++delta) {
+        double sum = 0;
+        for (long u = anchor - patch; u <= anchor + patch; ++u) sum += band.at(u, delta);
+        sums[std::size_t(delta + search)] = sum;
+      }
+      for (long t = anchor; t < block_end; ++t) {
+        if (t >= frame_begin) {
+          const std::size_t i = std::size_t(t - out_begin);
+          double* f = &w.f[i * width];
+          const double total = window_weights(t, frames, search, patch, params.h, sums, f);
+          w.inv_sum_d[i] = 1.0 / total;
+          w.inv_sum[i] = float(w.inv_sum_d[i]);
+          for (std::size_t s = 0; s < width; ++s) w.rows[s * w.wstride + i] = float(f[s]);
+        }
+        if (t + 1 < block_end)
+          for (int delta = -search; delta <= search; ++delta)
+            sums[std::size_t(delta + search)] +=
+                band.at(t + 1 + patch, delta) - band.at(t - patch, delta);
+      }
+    }
+    average_chunk(job, search, out_begin, chunk_end, w, planes, out);
+  }
+}
+
+}  // namespace mocap::simd
+#endif  // HWY_ONCE
