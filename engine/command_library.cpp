@@ -2,6 +2,7 @@
 // (library -> BVH), noise (library -> noisy library) and info.
 #include <fmt/core.h>
 
+#include <chrono>
 #include <set>
 
 #include "engine/commands.hpp"
@@ -81,6 +82,8 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out,
     report(summary, job.run.json);
     return 2;
   }
+  // The whole command, joining the parts included.
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   report(summary, job.run.json);
   return summary.exit_status();
 }
