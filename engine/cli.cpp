@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include "engine/commands.hpp"
+#include "engine/eval/eval_command.hpp"
 #include "engine/version.hpp"
 
 namespace mocap::engine {
@@ -17,6 +18,7 @@ constexpr const char* kFooter = R"(Examples:
   mocap-clean filter lib.h5 -o clean.h5 --method bof --threads 8
   mocap-clean export clean.h5 -o cleaned/            back to BVH, same folder layout
   mocap-clean info clean.h5                          clips, frames, skeletons, provenance
+  mocap-clean eval mocap/ -o report/                 noise, filter, score: tables and plots
 
 Run `mocap-clean <command> --help` for the options of each command.
 
@@ -121,6 +123,11 @@ int run_cli(int argc, char** argv) {
       ->capture_default_str();
   noise.run.add_to(*noise_cmd);
 
+  JoinCommand join;
+  CLI::App* join_cmd = app.add_subcommand("join", "join part files (of shards or ranks) into one library file");
+  join_cmd->add_option("PARTS", join.parts, "part files, or folders of them (OUT.h5.parts)")->required();
+  join_cmd->add_option("-o,--output", join.output, "the library file to write")->required();
+
   InfoCommand info;
   CLI::App* info_cmd =
       app.add_subcommand("info", "what a library file holds: clips, frames, skeletons, provenance");
@@ -129,6 +136,9 @@ int run_cli(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   info_cmd->add_flag("--clips", info.list_clips, "list every clip");
   info_cmd->add_flag("--json", info.json, "machine-readable output on stdout");
+
+  EvalCommand eval;
+  CLI::App* eval_cmd = add_eval_subcommand(app, eval);
 
   try {
     app.parse(argc, argv);
@@ -149,6 +159,8 @@ int run_cli(int argc, char** argv) {
     return run_noise(noise);
   }
   if (*info_cmd) return run_info(info);
+  if (*eval_cmd) return run_eval(eval);
+  if (*join_cmd) return run_join(join);
   return 2;
 }
 

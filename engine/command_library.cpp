@@ -7,8 +7,10 @@
 
 #include "engine/commands.hpp"
 #include "engine/job.hpp"
+#include "engine/shard_plan.hpp"
 #include "engine/version.hpp"
 #include "io/compression.hpp"
+#include "io/library_join.hpp"
 #include "kernels/noise_model.hpp"
 
 namespace mocap::engine {
@@ -23,7 +25,8 @@ int usage_error(const std::string& command, const std::string& message) {
 }
 
 // Opens the crash-safe output of a library command, or explains why not.
-std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, std::string* error) {
+std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, const ShardSpec& shard,
+                                               const io::Provenance& provenance, std::string* error) {
   const auto compression = io::parse_compression(out.compression);
   if (!compression) {
     *error = "unknown compression '" + out.compression + "'";
@@ -38,6 +41,11 @@ std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, std::st
   options.compression = *compression;
   options.resume = out.resume;
   options.clips_per_part = out.clips_per_part;
+  options.provenance = provenance;
+  if (shard.active()) {
+    options.shared_parts = true;
+    options.tag = shard.tag();
+  }
   auto parted = PartedOutput::open(options, error);
   if (!parted) return nullptr;
   auto sink = std::make_unique<LibrarySink>(std::move(parted));
@@ -56,32 +64,49 @@ std::vector<std::size_t> pending(const ClipSource& source, const PartedOutput& o
 }
 
 // Runs `job` into the library sink, joins the parts, reports. Shared by import, filter, noise.
-int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out,
-                     io::Provenance provenance, const std::string& command) {
+// With a shard, runs only that shard's clips; the last shard to finish joins.
+int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, const ShardSpec& shard,
+                     const io::Provenance& provenance, const std::string& command) {
+  const auto start = std::chrono::steady_clock::now();
   std::size_t skipped = 0;
-  job.selection = pending(*job.source, sink.output(), &skipped);
-  if (job.selection.empty() && job.source->count() > 0 && skipped == 0)
-    return usage_error(command, "nothing to do");
+  const std::vector<std::size_t> todo = pending(*job.source, sink.output(), &skipped);
+  job.selection = shard_selection(*job.source, todo, shard);
+  if (job.source->count() == 0) return usage_error(command, "the input holds no clips");
   if (skipped > 0 && !job.run.json)
-    fmt::print(stderr, "{}: resuming: {} clips already done, {} to go\n", command, skipped,
-               job.selection.size());
+    fmt::print(stderr, "{}: resuming: {} clips already done, {} to go{}\n", command, skipped,
+               job.selection.size(), shard.active() ? " in this shard" : "");
   RunSummary summary = job.selection.empty() ? RunSummary{} : run_job(job);
   summary.command = command;
   summary.extra["output"] = out.path;
   summary.extra["resumed_clips"] = skipped;
   summary.extra["compression"] = out.compression;
+  if (shard.active()) summary.extra["shard"] = fmt::format("{}/{}", shard.index, shard.count);
   std::string error;
+  bool joined = false;
   if (summary.interrupted) {
     if (!sink.output().commit(&error)) summary.failed.push_back({out.path, error});
     fmt::print(stderr,
-               "{}: interrupted: {} holds the clips finished so far; run the same command with "
+               "{}: interrupted: the clips finished so far are kept{}; run the same command with "
                "--resume to complete it\n",
-               command, out.path);
+               command, shard.active() ? "" : fmt::format(" ({} is valid)", out.path));
+  } else if (shard.active()) {
+    if (!sink.output().mark_finished(&error)) {
+      summary.failed.push_back({out.path, error});
+    } else if (sink.output().all_finished(shard.count) && sink.output().claim_join()) {
+      if (!sink.output().join(provenance, &error)) summary.failed.push_back({out.path, error});
+      joined = error.empty();
+    } else if (!job.run.json) {
+      fmt::print(stderr, "{}: shard {}/{} done; the last shard to finish joins {}\n", command, shard.index,
+                 shard.count, out.path);
+    }
   } else if (!sink.output().finish(provenance, &error)) {
     summary.failed.push_back({out.path, error});
     report(summary, job.run.json);
     return 2;
+  } else {
+    joined = true;
   }
+  summary.extra["joined"] = joined;
   // The whole command, joining the parts included.
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   report(summary, job.run.json);
@@ -103,6 +128,10 @@ void LibraryOutput::add_to(CLI::App& cmd) {
       ->check(CLI::IsMember({"none", "lz4", "deflate"}))
       ->capture_default_str();
   cmd.add_flag("--resume", resume, "complete an interrupted run: keep the clips it finished");
+  cmd.add_option("--shard", shard,
+                 "I/N: process only the I-th of N cost-balanced shards (job arrays); the last shard "
+                 "to finish joins OUT")
+      ->group("Cluster");
   cmd.add_option("--clips-per-part", clips_per_part, "clips per committed part file")
       ->check(CLI::PositiveNumber)
       ->capture_default_str()
@@ -116,7 +145,12 @@ int run_import(const ImportCommand& command) {
   if (sources.files.empty())
     return usage_error("import", "no .bvh files found in the given sources");
   std::string error;
-  auto sink = open_library_sink(command.output, &error);
+  const auto shard = parse_shard(command.output.shard, &error);
+  if (!shard) return usage_error("import", error);
+  std::string inputs;
+  for (const auto& s : command.sources) inputs += (inputs.empty() ? "" : " ") + s;
+  const io::Provenance provenance = make_provenance("import", nlohmann::json::object(), inputs);
+  auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("import", error);
   BvhSource source(sources.files);
   Job job;
@@ -124,19 +158,20 @@ int run_import(const ImportCommand& command) {
   job.source = &source;
   job.sink = sink.get();
   job.run = command.run;
-  std::string inputs;
-  for (const auto& s : command.sources) inputs += (inputs.empty() ? "" : " ") + s;
-  return run_into_library(job, *sink, command.output,
-                          make_provenance("import", nlohmann::json::object(), inputs), "import");
+  return run_into_library(job, *sink, command.output, *shard, provenance, "import");
 }
 
 int run_filter(const FilterCommand& command) {
   const FilterSettings settings = command.filter.settings();
   if (const Status s = settings.validate(); !s.ok()) return usage_error("filter", s.message());
   std::string error;
+  const auto shard = parse_shard(command.output.shard, &error);
+  if (!shard) return usage_error("filter", error);
   auto source = LibrarySource::open(command.input, &error);
   if (!source) return usage_error("filter", error);
-  auto sink = open_library_sink(command.output, &error);
+  const io::Provenance provenance =
+      make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input);
+  auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("filter", error);
   Job job;
   job.label = "filter";
@@ -144,10 +179,7 @@ int run_filter(const FilterCommand& command) {
   job.sink = sink.get();
   job.filter = settings;
   job.run = command.run;
-  return run_into_library(
-      job, *sink, command.output,
-      make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input),
-      "filter");
+  return run_into_library(job, *sink, command.output, *shard, provenance, "filter");
 }
 
 int run_export(const ExportCommand& command) {
@@ -180,11 +212,26 @@ std::uint64_t clip_seed(std::uint64_t seed, const std::string& clip_path) {
 
 }  // namespace
 
+nlohmann::json noise_parameters(const NoiseCommand& command) {
+  nlohmann::json parameters = {{"model", command.model}, {"seed", command.seed}};
+  if (command.model == "gaussian") {
+    parameters["sigma"] = command.sigma;
+  } else {
+    parameters["rate"] = command.rate;
+    parameters["min_angle"] = command.min_angle;
+    parameters["max_angle"] = command.max_angle;
+  }
+  return parameters;
+}
+
 int run_noise(const NoiseCommand& command) {
   std::string error;
+  const auto shard = parse_shard(command.output.shard, &error);
+  if (!shard) return usage_error("noise", error);
   auto source = LibrarySource::open(command.input, &error);
   if (!source) return usage_error("noise", error);
-  auto sink = open_library_sink(command.output, &error);
+  const io::Provenance provenance = make_provenance("noise", noise_parameters(command), command.input);
+  auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("noise", error);
   Job job;
   job.label = "noise";
@@ -202,16 +249,42 @@ int run_noise(const NoiseCommand& command) {
     }
     return {};
   };
-  nlohmann::json parameters = {{"model", command.model}, {"seed", command.seed}};
-  if (command.model == "gaussian") {
-    parameters["sigma"] = command.sigma;
-  } else {
-    parameters["rate"] = command.rate;
-    parameters["min_angle"] = command.min_angle;
-    parameters["max_angle"] = command.max_angle;
+  return run_into_library(job, *sink, command.output, *shard, provenance, "noise");
+}
+
+int run_join(const JoinCommand& command) {
+  std::vector<fs::path> parts;
+  for (const std::string& arg : command.parts) {
+    std::error_code ec;
+    if (fs::is_directory(arg, ec)) {
+      for (const auto& entry : fs::directory_iterator(arg, ec))
+        if (entry.path().extension() == ".h5") parts.push_back(entry.path());
+    } else if (fs::is_regular_file(arg, ec)) {
+      parts.push_back(arg);
+    } else {
+      return usage_error("join", arg + ": no such file or folder");
+    }
   }
-  return run_into_library(job, *sink, command.output,
-                          make_provenance("noise", parameters, command.input), "noise");
+  std::sort(parts.begin(), parts.end());
+  if (parts.empty()) return usage_error("join", "no part files (*.h5) found");
+  std::string error;
+  io::Provenance provenance;
+  if (auto first = io::LibraryReader::open(parts.front(), &error)) {
+    provenance = first->provenance().value_or(io::Provenance{});
+  } else {
+    return usage_error("join", error);
+  }
+  const fs::path tmp = command.output + ".tmp";
+  if (!io::join_libraries(parts, tmp, provenance, &error)) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    return usage_error("join", error);
+  }
+  std::error_code ec;
+  fs::rename(tmp, command.output, ec);
+  if (ec) return usage_error("join", "cannot rename " + tmp.string() + ": " + ec.message());
+  fmt::print(stderr, "join: {} parts into {}\n", parts.size(), command.output);
+  return 0;
 }
 
 int run_info(const InfoCommand& command) {

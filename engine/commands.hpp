@@ -36,6 +36,7 @@ struct LibraryOutput {
   std::string compression = "lz4";
   bool resume = false;
   int clips_per_part = 256;
+  std::string shard = "0/1";  // --shard I/N
   void add_to(CLI::App& command);
 };
 
@@ -70,6 +71,12 @@ struct NoiseCommand {
   RunOptions run;
 };
 int run_noise(const NoiseCommand& command);
+
+struct JoinCommand {
+  std::vector<std::string> parts;  // part files or folders of them
+  std::string output;
+};
+int run_join(const JoinCommand& command);
 
 struct InfoCommand {
   std::string input;

@@ -4,6 +4,9 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
+#include <fcntl.h>
+#include <unistd.h>
 
 #include "io/library_join.hpp"
 #include "io/library_reader.hpp"
@@ -46,7 +49,7 @@ std::unique_ptr<PartedOutput> PartedOutput::open(const PartedOutputOptions& opti
   out->options_.output = fs::absolute(options.output);
   const fs::path dir = out->parts_dir();
   std::error_code ec;
-  if (fs::exists(dir, ec) && !options.resume) {
+  if (fs::exists(dir, ec) && !options.resume && !options.shared_parts) {
     fail(error, fmt::format("{} holds the parts of an unfinished run: add --resume to complete it, "
                             "or delete the folder to start again",
                             dir.string()));
@@ -60,11 +63,21 @@ std::unique_ptr<PartedOutput> PartedOutput::open(const PartedOutputOptions& opti
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const fs::path& p = entry.path();
     if (p.extension() == ".tmp") {
-      fs::remove(p, ec);  // a part that was being written when the run died
+      // A part that was being written when this writer died; other writers' are in use.
+      if (!options.shared_parts || p.filename().string().starts_with("part-" + options.tag + "-"))
+        fs::remove(p, ec);
       continue;
     }
     if (!is_committed_part(p)) continue;
-    out->next_part_ = std::max(out->next_part_, part_number(p, options.tag) + 1);
+    const int number = part_number(p, options.tag);
+    if (number >= 0 && !options.resume) {
+      fail(error, fmt::format("{} holds parts of an unfinished run of this shard ({}): add --resume "
+                              "to complete it, or delete the folder to start again",
+                              dir.string(), options.tag));
+      return nullptr;
+    }
+    out->next_part_ = std::max(out->next_part_, number + 1);
+    if (!options.resume) continue;  // another writer's part: not ours to skip
     auto reader = io::LibraryReader::open(p, error);
     if (!reader) return nullptr;
     for (const auto& clip : reader->clips())
@@ -89,6 +102,8 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
     const fs::path tmp = current_path_.string() + ".tmp";
     current_ = io::LibraryWriter::create(tmp, options_.compression, error);
     if (!current_) return false;
+    if (!options_.provenance.method.empty() && !current_->write_provenance(options_.provenance, error))
+      return false;
     clips_in_current_ = 0;
     opened_at_ = std::chrono::steady_clock::now();
   }
@@ -111,7 +126,7 @@ bool PartedOutput::commit(std::string* error) {
   std::error_code ec;
   fs::rename(tmp, current_path_, ec);
   if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
-  return !options_.keep_master_current || refresh_master(error);
+  return !options_.keep_master_current || options_.shared_parts || refresh_master(error);
 }
 
 bool PartedOutput::refresh_master(std::string* error) {
@@ -124,7 +139,33 @@ bool PartedOutput::refresh_master(std::string* error) {
 }
 
 bool PartedOutput::finish(const io::Provenance& provenance, std::string* error) {
+  return commit(error) && join(provenance, error);
+}
+
+bool PartedOutput::mark_finished(std::string* error) {
   if (!commit(error)) return false;
+  const fs::path marker = parts_dir() / ("finished-" + options_.tag);
+  std::FILE* f = std::fopen(marker.c_str(), "w");
+  if (!f || std::fclose(f) != 0) return fail(error, "cannot write " + marker.string());
+  return true;
+}
+
+bool PartedOutput::all_finished(int count) const {
+  std::error_code ec;
+  for (int i = 0; i < count; ++i)
+    if (!fs::exists(parts_dir() / fmt::format("finished-s{}of{}", i, count), ec)) return false;
+  return true;
+}
+
+bool PartedOutput::claim_join() const {
+  const fs::path lock = parts_dir() / "join.lock";
+  const int fd = ::open(lock.c_str(), O_CREAT | O_EXCL | O_WRONLY, 0644);
+  if (fd < 0) return false;
+  ::close(fd);
+  return true;
+}
+
+bool PartedOutput::join(const io::Provenance& provenance, std::string* error) {
   const fs::path tmp = options_.output.string() + ".tmp";
   if (!io::join_libraries(committed_parts(), tmp, provenance, error)) return false;
   std::error_code ec;

@@ -27,6 +27,11 @@ struct PartedOutputOptions {
   int clips_per_part = 256;
   double seconds_per_part = 5.0;    // a part is committed at least this often
   bool keep_master_current = true;  // rewrite OUT's links after each commit
+  // Several processes (shards, ranks) write parts into the same folder at once: an existing
+  // folder is expected, only this writer's own committed parts require --resume, and OUT is left
+  // to the join.
+  bool shared_parts = false;
+  io::Provenance provenance;  // written into every part, so a join can restore it
 };
 
 class PartedOutput {
@@ -44,6 +49,15 @@ class PartedOutput {
   bool finish(const io::Provenance& provenance, std::string* error);
   // The committed part files, sorted.
   std::vector<std::filesystem::path> committed_parts() const;
+
+  // For shared parts: marks this writer (tag) as finished, and tells whether all `count`
+  // writers of the same split have finished; then exactly one caller gets true from
+  // claim_join() (an exclusive lock file), and that one joins.
+  bool mark_finished(std::string* error);
+  bool all_finished(int count) const;
+  bool claim_join() const;
+  // Joins every committed part into OUT (through OUT.tmp and a rename) and removes OUT.parts.
+  bool join(const io::Provenance& provenance, std::string* error);
 
  private:
   explicit PartedOutput(PartedOutputOptions options) : options_(std::move(options)) {}
