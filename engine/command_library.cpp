@@ -3,8 +3,10 @@
 #include <fmt/core.h>
 
 #include <chrono>
+#include <numeric>
 #include <set>
 
+#include "engine/cluster.hpp"
 #include "engine/commands.hpp"
 #include "engine/job.hpp"
 #include "engine/shard_plan.hpp"
@@ -26,7 +28,8 @@ int usage_error(const std::string& command, const std::string& message) {
 
 // Opens the crash-safe output of a library command, or explains why not.
 std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, const ShardSpec& shard,
-                                               const io::Provenance& provenance, std::string* error) {
+                                               const io::Provenance& provenance,
+                                               std::string* error) {
   const auto compression = io::parse_compression(out.compression);
   if (!compression) {
     *error = "unknown compression '" + out.compression + "'";
@@ -53,13 +56,25 @@ std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, const S
   return sink;
 }
 
-// The source indices whose clip paths the output does not hold yet.
-std::vector<std::size_t> pending(const ClipSource& source, const PartedOutput& output,
-                                 std::size_t* skipped) {
+// The shard this process runs: --shard I/N, or under mpirun rank/size (the same split).
+std::optional<ShardSpec> process_shard(const LibraryOutput& out, std::string* error) {
+  auto shard = parse_shard(out.shard, error);
+  if (!shard || !cluster().active()) return shard;
+  if (shard->active()) {
+    *error = "--shard and mpirun split the library the same way: use one of them";
+    return std::nullopt;
+  }
+  return ShardSpec{cluster().rank, cluster().size};
+}
+
+// The indices among `candidates` whose clip paths the output does not hold yet.
+std::vector<std::size_t> pending(const ClipSource& source,
+                                 const std::vector<std::size_t>& candidates,
+                                 const PartedOutput& output, std::size_t* skipped) {
   std::vector<std::size_t> todo;
-  for (std::size_t i = 0; i < source.count(); ++i)
+  for (std::size_t i : candidates)
     if (!output.done().count(source.clip_path(i))) todo.push_back(i);
-  *skipped = source.count() - todo.size();
+  *skipped = candidates.size() - todo.size();
   return todo;
 }
 
@@ -68,9 +83,14 @@ std::vector<std::size_t> pending(const ClipSource& source, const PartedOutput& o
 int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, const ShardSpec& shard,
                      const io::Provenance& provenance, const std::string& command) {
   const auto start = std::chrono::steady_clock::now();
+  if (cluster().rank != 0) job.run.progress = false;  // one progress bar, rank 0's
+  // Split all clips, then drop the finished ones: shards that start at different moments of a
+  // resumed run must agree on the split, so it cannot depend on what is finished already.
+  std::vector<std::size_t> all(job.source->count());
+  std::iota(all.begin(), all.end(), std::size_t(0));
   std::size_t skipped = 0;
-  const std::vector<std::size_t> todo = pending(*job.source, sink.output(), &skipped);
-  job.selection = shard_selection(*job.source, todo, shard);
+  job.selection =
+      pending(*job.source, shard_selection(*job.source, all, shard), sink.output(), &skipped);
   if (job.source->count() == 0) return usage_error(command, "the input holds no clips");
   if (skipped > 0 && !job.run.json)
     fmt::print(stderr, "{}: resuming: {} clips already done, {} to go{}\n", command, skipped,
@@ -89,6 +109,14 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, cons
                "{}: interrupted: the clips finished so far are kept{}; run the same command with "
                "--resume to complete it\n",
                command, shard.active() ? "" : fmt::format(" ({} is valid)", out.path));
+  } else if (cluster().active()) {
+    // Every rank commits its parts; once all have, rank 0 joins them.
+    if (!sink.output().mark_finished(&error)) summary.failed.push_back({out.path, error});
+    cluster_barrier();
+    if (cluster().rank == 0 && error.empty()) {
+      if (!sink.output().join(provenance, &error)) summary.failed.push_back({out.path, error});
+      joined = error.empty();
+    }
   } else if (shard.active()) {
     if (!sink.output().mark_finished(&error)) {
       summary.failed.push_back({out.path, error});
@@ -96,8 +124,8 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, cons
       if (!sink.output().join(provenance, &error)) summary.failed.push_back({out.path, error});
       joined = error.empty();
     } else if (!job.run.json) {
-      fmt::print(stderr, "{}: shard {}/{} done; the last shard to finish joins {}\n", command, shard.index,
-                 shard.count, out.path);
+      fmt::print(stderr, "{}: shard {}/{} done; the last shard to finish joins {}\n", command,
+                 shard.index, shard.count, out.path);
     }
   } else if (!sink.output().finish(provenance, &error)) {
     summary.failed.push_back({out.path, error});
@@ -109,6 +137,12 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, cons
   summary.extra["joined"] = joined;
   // The whole command, joining the parts included.
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (cluster().active()) {
+    const RunSummary total = cluster_gather(summary);
+    if (cluster().rank != 0) return summary.exit_status();
+    report(total, job.run.json);
+    return total.exit_status();
+  }
   report(summary, job.run.json);
   return summary.exit_status();
 }
@@ -128,9 +162,10 @@ void LibraryOutput::add_to(CLI::App& cmd) {
       ->check(CLI::IsMember({"none", "lz4", "deflate"}))
       ->capture_default_str();
   cmd.add_flag("--resume", resume, "complete an interrupted run: keep the clips it finished");
-  cmd.add_option("--shard", shard,
-                 "I/N: process only the I-th of N cost-balanced shards (job arrays); the last shard "
-                 "to finish joins OUT")
+  cmd.add_option(
+         "--shard", shard,
+         "I/N: process only the I-th of N cost-balanced shards (job arrays); the last shard "
+         "to finish joins OUT")
       ->group("Cluster");
   cmd.add_option("--clips-per-part", clips_per_part, "clips per committed part file")
       ->check(CLI::PositiveNumber)
@@ -145,7 +180,7 @@ int run_import(const ImportCommand& command) {
   if (sources.files.empty())
     return usage_error("import", "no .bvh files found in the given sources");
   std::string error;
-  const auto shard = parse_shard(command.output.shard, &error);
+  const auto shard = process_shard(command.output, &error);
   if (!shard) return usage_error("import", error);
   std::string inputs;
   for (const auto& s : command.sources) inputs += (inputs.empty() ? "" : " ") + s;
@@ -165,7 +200,7 @@ int run_filter(const FilterCommand& command) {
   const FilterSettings settings = command.filter.settings();
   if (const Status s = settings.validate(); !s.ok()) return usage_error("filter", s.message());
   std::string error;
-  const auto shard = parse_shard(command.output.shard, &error);
+  const auto shard = process_shard(command.output, &error);
   if (!shard) return usage_error("filter", error);
   auto source = LibrarySource::open(command.input, &error);
   if (!source) return usage_error("filter", error);
@@ -226,11 +261,12 @@ nlohmann::json noise_parameters(const NoiseCommand& command) {
 
 int run_noise(const NoiseCommand& command) {
   std::string error;
-  const auto shard = parse_shard(command.output.shard, &error);
+  const auto shard = process_shard(command.output, &error);
   if (!shard) return usage_error("noise", error);
   auto source = LibrarySource::open(command.input, &error);
   if (!source) return usage_error("noise", error);
-  const io::Provenance provenance = make_provenance("noise", noise_parameters(command), command.input);
+  const io::Provenance provenance =
+      make_provenance("noise", noise_parameters(command), command.input);
   auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("noise", error);
   Job job;

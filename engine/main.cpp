@@ -1,5 +1,9 @@
 #include "engine/cli.hpp"
+#include "engine/cluster.hpp"
 
 int main(int argc, char** argv) {
-  return mocap::engine::run_cli(argc, argv);
+  mocap::engine::cluster_init(&argc, &argv);
+  const int status = mocap::engine::run_cli(argc, argv);
+  mocap::engine::cluster_finalize();
+  return status;
 }
