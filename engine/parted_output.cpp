@@ -2,11 +2,11 @@
 
 #include <fmt/core.h>
 
+#include <fcntl.h>
+#include <unistd.h>
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
-#include <fcntl.h>
-#include <unistd.h>
 
 #include "io/library_join.hpp"
 #include "io/library_reader.hpp"
@@ -71,9 +71,10 @@ std::unique_ptr<PartedOutput> PartedOutput::open(const PartedOutputOptions& opti
     if (!is_committed_part(p)) continue;
     const int number = part_number(p, options.tag);
     if (number >= 0 && !options.resume) {
-      fail(error, fmt::format("{} holds parts of an unfinished run of this shard ({}): add --resume "
-                              "to complete it, or delete the folder to start again",
-                              dir.string(), options.tag));
+      fail(error,
+           fmt::format("{} holds parts of an unfinished run of this shard ({}): add --resume "
+                       "to complete it, or delete the folder to start again",
+                       dir.string(), options.tag));
       return nullptr;
     }
     out->next_part_ = std::max(out->next_part_, number + 1);
@@ -102,7 +103,8 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
     const fs::path tmp = current_path_.string() + ".tmp";
     current_ = io::LibraryWriter::create(tmp, options_.compression, error);
     if (!current_) return false;
-    if (!options_.provenance.method.empty() && !current_->write_provenance(options_.provenance, error))
+    if (!options_.provenance.method.empty() &&
+        !current_->write_provenance(options_.provenance, error))
       return false;
     clips_in_current_ = 0;
     opened_at_ = std::chrono::steady_clock::now();
@@ -130,11 +132,21 @@ bool PartedOutput::commit(std::string* error) {
 }
 
 bool PartedOutput::refresh_master(std::string* error) {
+  // The first refresh of this process builds the link file from every committed part; later
+  // ones copy it and add the new part's links, so each costs O(new clips), not O(all clips).
   const fs::path tmp = options_.output.string() + ".tmp";
-  if (!io::link_libraries(committed_parts(), tmp, error)) return false;
   std::error_code ec;
+  bool built = false;
+  if (master_current_ &&
+      fs::copy_file(options_.output, tmp, fs::copy_options::overwrite_existing, ec)) {
+    built = io::add_library_links(current_path_, tmp, error);
+  } else {
+    built = io::link_libraries(committed_parts(), tmp, error);
+  }
+  if (!built) return false;
   fs::rename(tmp, options_.output, ec);
   if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  master_current_ = true;
   return true;
 }
 

@@ -69,6 +69,7 @@ class PartedOutput {
   std::filesystem::path current_path_;
   int clips_in_current_ = 0;
   int next_part_ = 0;
+  bool master_current_ = false;  // OUT holds the links of every part committed so far
   std::chrono::steady_clock::time_point opened_at_;
 };
 

@@ -64,7 +64,8 @@ bool join_libraries(const std::vector<fs::path>& parts, const fs::path& output,
     h5::File in(H5Fopen(part.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT));
     if (!in) return fail(error, h5::with_detail(part.string() + ": cannot open"));
     for (const ClipHeader& clip : reader->clips()) {
-      if (!clip.error.empty()) return fail(error, part.string() + ": " + clip.path + ": " + clip.error);
+      if (!clip.error.empty())
+        return fail(error, part.string() + ": " + clip.path + ": " + clip.error);
       const auto [it, fresh] = owner.emplace(clip.path, part);
       if (!fresh)
         return fail(error, "clip '" + clip.path + "' is in both " + it->second.string() + " and " +
@@ -87,28 +88,45 @@ bool join_libraries(const std::vector<fs::path>& parts, const fs::path& output,
   return true;
 }
 
+namespace {
+
+// Links the clips of `part` into the open library `out`.
+bool link_part(hid_t out, const fs::path& part, const fs::path& output, std::string* error) {
+  auto reader = LibraryReader::open(part, error);
+  if (!reader) return false;
+  const h5::PropertyList lcpl = intermediate_groups();
+  const fs::path base = output.parent_path().empty() ? fs::path(".") : output.parent_path();
+  const std::string target = part.lexically_relative(base).generic_string();
+  for (const ClipHeader& clip : reader->clips()) {
+    if (!clip.error.empty()) continue;
+    const std::string where = "/clips/" + clip.path;
+    if (H5Lexists(out, where.c_str(), H5P_DEFAULT) > 0) continue;
+    if (H5Lcreate_external(target.c_str(), where.c_str(), out, where.c_str(), lcpl.get(),
+                           H5P_DEFAULT) < 0)
+      return fail(error,
+                  h5::with_detail(output.string() + ": cannot link clip '" + clip.path + "'"));
+  }
+  return true;
+}
+
+}  // namespace
+
 bool link_libraries(const std::vector<fs::path>& parts, const fs::path& output,
                     std::string* error) {
   const h5::ErrorSilence quiet;
   h5::File out = create_empty_library(output, error);
   if (!out) return false;
-  const h5::PropertyList lcpl = intermediate_groups();
-  std::set<std::string> linked;
-  for (const fs::path& part : parts) {
-    auto reader = LibraryReader::open(part, error);
-    if (!reader) return false;
-    const std::string target = part.lexically_relative(output.parent_path().empty()
-                                                           ? fs::path(".")
-                                                           : output.parent_path())
-                                   .generic_string();
-    for (const ClipHeader& clip : reader->clips()) {
-      if (!clip.error.empty() || !linked.insert(clip.path).second) continue;
-      const std::string where = "/clips/" + clip.path;
-      if (H5Lcreate_external(target.c_str(), where.c_str(), out.get(), where.c_str(), lcpl.get(),
-                             H5P_DEFAULT) < 0)
-        return fail(error, h5::with_detail(output.string() + ": cannot link clip '" + clip.path + "'"));
-    }
-  }
+  for (const fs::path& part : parts)
+    if (!link_part(out.get(), part, output, error)) return false;
+  if (!out.reset()) return fail(error, h5::with_detail(output.string() + ": cannot close"));
+  return true;
+}
+
+bool add_library_links(const fs::path& part, const fs::path& output, std::string* error) {
+  const h5::ErrorSilence quiet;
+  h5::File out(H5Fopen(output.c_str(), H5F_ACC_RDWR, H5P_DEFAULT));
+  if (!out) return fail(error, h5::with_detail(output.string() + ": cannot open for writing"));
+  if (!link_part(out.get(), part, output, error)) return false;
   if (!out.reset()) return fail(error, h5::with_detail(output.string() + ": cannot close"));
   return true;
 }

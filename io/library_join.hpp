@@ -23,4 +23,9 @@ bool join_libraries(const std::vector<std::filesystem::path>& parts,
 bool link_libraries(const std::vector<std::filesystem::path>& parts,
                     const std::filesystem::path& output, std::string* error);
 
+// Adds links to the clips of `part` to an existing library of links (made by link_libraries);
+// clip paths it already has are left alone.
+bool add_library_links(const std::filesystem::path& part, const std::filesystem::path& output,
+                       std::string* error);
+
 }  // namespace mocap::io
