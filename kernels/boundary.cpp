@@ -11,9 +11,12 @@ std::optional<Boundary> parse_boundary(std::string_view name) {
 
 std::string_view to_string(Boundary boundary) {
   switch (boundary) {
-    case Boundary::mirror: return "mirror";
-    case Boundary::hold: return "hold";
-    case Boundary::extrapolate: return "extrapolate";
+    case Boundary::mirror:
+      return "mirror";
+    case Boundary::hold:
+      return "hold";
+    case Boundary::extrapolate:
+      return "extrapolate";
   }
   return "?";
 }
@@ -28,80 +31,68 @@ int reflect_index(long t, int frames, Boundary boundary) {
   return int(m <= last ? m : period - m);
 }
 
-Quat extended_rotation(RotationView rotations, int joint, long t, Boundary boundary) {
-  const int frames = rotations.frames;
+namespace {
+
+// Spec "extrapolate": `base` moved on by `steps` times the step from `from` to `to`.
+Quat constant_velocity(Quat base, Quat from, Quat to, double steps) {
+  return base * exp(steps * log(inverse(from) * to));
+}
+Vec3 constant_velocity(Vec3 base, Vec3 from, Vec3 to, double steps) {
+  return base + steps * (to - from);
+}
+
+// Sample t (any integer) of a curve whose samples in [0, F) are sample(i).
+template <class Sample>
+auto extended(const Sample& sample, int frames, long t, Boundary boundary) {
   if (boundary != Boundary::extrapolate || (t >= 0 && t < frames) || frames < 2)
-    return load_quat(rotations.at(reflect_index(t, frames, boundary), joint));
-  if (t < 0) {
-    const Quat q0 = load_quat(rotations.at(0, joint));
-    const Quat q1 = load_quat(rotations.at(1, joint));
-    return q0 * exp(double(t) * log(inverse(q0) * q1));
-  }
-  const Quat qa = load_quat(rotations.at(frames - 2, joint));
-  const Quat qb = load_quat(rotations.at(frames - 1, joint));
-  return qb * exp(double(t - frames + 1) * log(inverse(qa) * qb));
+    return sample(reflect_index(t, frames, boundary));
+  if (t < 0) return constant_velocity(sample(0), sample(0), sample(1), double(t));
+  return constant_velocity(sample(frames - 1), sample(frames - 2), sample(frames - 1),
+                           double(t - frames + 1));
+}
+
+template <class T, class Sample>
+void extend_curve(const Sample& sample, int frames, int reach, Boundary boundary,
+                  std::vector<T>& out) {
+  out.resize(std::size_t(frames) + 2 * std::size_t(reach));
+  for (long i = 0; i < long(out.size()); ++i)
+    out[i] = extended(sample, frames, i - reach, boundary);
+}
+
+}  // namespace
+
+Quat extended_rotation(RotationView rotations, int joint, long t, Boundary boundary) {
+  return extended([&](long i) { return load_quat(rotations.at(int(i), joint)); }, rotations.frames,
+                  t, boundary);
 }
 
 Vec3 extended_translation(TranslationView translations, int joint, long t, Boundary boundary) {
-  const int frames = translations.frames;
-  if (boundary != Boundary::extrapolate || (t >= 0 && t < frames) || frames < 2)
-    return load_vec3(translations.at(reflect_index(t, frames, boundary), joint));
-  if (t < 0) {
-    const Vec3 p0 = load_vec3(translations.at(0, joint));
-    const Vec3 p1 = load_vec3(translations.at(1, joint));
-    return p0 + double(t) * (p1 - p0);
-  }
-  const Vec3 pa = load_vec3(translations.at(frames - 2, joint));
-  const Vec3 pb = load_vec3(translations.at(frames - 1, joint));
-  return pb + double(t - frames + 1) * (pb - pa);
+  return extended([&](long i) { return load_vec3(translations.at(int(i), joint)); },
+                  translations.frames, t, boundary);
 }
 
 void extend_rotation_curve(RotationView rotations, int joint, int reach, Boundary boundary,
                            std::vector<Quat>& out) {
-  out.resize(std::size_t(rotations.frames) + 2 * std::size_t(reach));
-  for (long i = 0; i < long(out.size()); ++i)
-    out[i] = extended_rotation(rotations, joint, i - reach, boundary);
+  extend_curve([&](long i) { return load_quat(rotations.at(int(i), joint)); }, rotations.frames,
+               reach, boundary, out);
 }
 
-void extend_translation_curve(TranslationView translations, int joint, int reach,
-                              Boundary boundary, std::vector<Vec3>& out) {
-  out.resize(std::size_t(translations.frames) + 2 * std::size_t(reach));
-  for (long i = 0; i < long(out.size()); ++i)
-    out[i] = extended_translation(translations, joint, i - reach, boundary);
+void extend_translation_curve(TranslationView translations, int joint, int reach, Boundary boundary,
+                              std::vector<Vec3>& out) {
+  extend_curve([&](long i) { return load_vec3(translations.at(int(i), joint)); },
+               translations.frames, reach, boundary, out);
 }
 
 void extend_rotation_curve(std::span<const Quat> curve, int reach, Boundary boundary,
                            std::vector<Quat>& out) {
-  const int frames = int(curve.size());
-  out.resize(curve.size() + 2 * std::size_t(reach));
-  for (long i = 0; i < long(out.size()); ++i) {
-    const long t = i - reach;
-    if (boundary != Boundary::extrapolate || (t >= 0 && t < frames) || frames < 2) {
-      out[i] = curve[reflect_index(t, frames, boundary)];
-    } else if (t < 0) {
-      out[i] = curve[0] * exp(double(t) * log(inverse(curve[0]) * curve[1]));
-    } else {
-      const Quat qa = curve[frames - 2], qb = curve[frames - 1];
-      out[i] = qb * exp(double(t - frames + 1) * log(inverse(qa) * qb));
-    }
-  }
+  extend_curve([&](long i) { return curve[std::size_t(i)]; }, int(curve.size()), reach, boundary,
+               out);
 }
 
 void extend_translation_curve(std::span<const Vec3> curve, int reach, Boundary boundary,
                               std::vector<Vec3>& out) {
-  const int frames = int(curve.size());
-  out.resize(curve.size() + 2 * std::size_t(reach));
-  for (long i = 0; i < long(out.size()); ++i) {
-    const long t = i - reach;
-    if (boundary != Boundary::extrapolate || (t >= 0 && t < frames) || frames < 2) {
-      out[i] = curve[reflect_index(t, frames, boundary)];
-    } else if (t < 0) {
-      out[i] = curve[0] + double(t) * (curve[1] - curve[0]);
-    } else {
-      const Vec3 pa = curve[frames - 2], pb = curve[frames - 1];
-      out[i] = pb + double(t - frames + 1) * (pb - pa);
-    }
-  }
+  extend_curve([&](long i) { return curve[std::size_t(i)]; }, int(curve.size()), reach, boundary,
+               out);
 }
 
 }  // namespace mocap
