@@ -10,12 +10,15 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "bof: bilateral orientation filter (Courty 2008): smooths jitter, keeps edges\n"
                  "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses\n"
                  "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)\n"
+                 "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline\n"
                  "none: copy (checks the round trip)")
-      ->check(CLI::IsMember({"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean"}))
+      ->check(CLI::IsMember(
+          {"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman"}))
       ->capture_default_str()
       ->group("Filter");
-  cmd.add_option("--sigma-t", sigma_t, "bof, gaussian: temporal width in frames")
-      ->check(CLI::PositiveNumber)
+  cmd.add_option("--sigma-t", sigma_t,
+                 "bof, gaussian: temporal width in frames (bof: 0 = automatic, from the noise)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--window,-k", window,
@@ -23,8 +26,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str()
       ->group("Filter");
-  cmd.add_option("--sigma-g", sigma_g, "bof: range width in radians (full rotation angle)")
-      ->check(CLI::PositiveNumber)
+  cmd.add_option("--sigma-g", sigma_g,
+                 "bof: range width in radians, full rotation angle (0 = automatic, from the noise)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--iterations", iterations,
@@ -70,6 +74,11 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str()
       ->group("Filter");
+  cmd.add_option("--kalman-lambda", kalman_lambda,
+                 "kalman: process over measurement noise q/r (0 = automatic, from the noise)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--boundary", boundary,
                  "samples beyond the clip's ends: mirror, hold, extrapolate")
       ->check(CLI::IsMember({"mirror", "hold", "extrapolate"}))
@@ -111,6 +120,8 @@ FilterSettings FilterOptions::settings() const {
   s.nlpm.h = h;
   s.nlpm.space = space == "log" ? NlpmSpace::log : NlpmSpace::tangent;
   s.nlpm.boundary = b;
+  s.kalman.lambda = kalman_lambda;
+  s.kalman.boundary = b;
   s.filter_translations = translations == "filter";
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;

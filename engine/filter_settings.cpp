@@ -16,6 +16,7 @@ std::optional<Method> parse_method(std::string_view name) {
   if (name == "gaussian") return Method::gaussian;
   if (name == "butterworth") return Method::butterworth;
   if (name == "moving-mean") return Method::moving_mean;
+  if (name == "kalman") return Method::kalman;
   return std::nullopt;
 }
 
@@ -33,6 +34,8 @@ std::string_view to_string(Method method) {
       return "butterworth";
     case Method::moving_mean:
       return "moving-mean";
+    case Method::kalman:
+      return "kalman";
   }
   return "?";
 }
@@ -47,14 +50,28 @@ LinearKind linear_kind(Method method) {
 
 }  // namespace
 
+BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, double frame_time) {
+  if (params.sigma_g == 0) params.sigma_g = kBofAutoSigmaGFactor * sigma_hat;
+  if (params.sigma_t == 0)
+    params.sigma_t = std::max(1.0, kBofAutoSigmaTFactor * std::sqrt(sigma_hat) *
+                                       std::pow(1.0 / (120.0 * frame_time), 0.75));
+  return params;
+}
+
 Status FilterSettings::validate() const {
   if (shard_joints < 1) return Status::error("shard joints must be >= 1");
   if (shard_frames < 1) return Status::error("shard frames must be >= 1");
   switch (method) {
     case Method::none:
       return {};
-    case Method::bof:
-      return bilateral.validate();
+    case Method::bof: {
+      BilateralParams p = bilateral;
+      if (p.sigma_g == 0) p.sigma_g = 1;  // automatic: resolved per clip
+      if (p.sigma_t == 0) p.sigma_t = 1;
+      return p.validate();
+    }
+    case Method::kalman:
+      return kalman.validate();  // lambda 0: automatic, resolved per clip
     case Method::nlpm: {
       NlpmParams p = nlpm;
       if (p.h == 0) p.h = 1;  // automatic: checked per clip
@@ -76,8 +93,10 @@ nlohmann::json FilterSettings::to_json() const {
     case Method::none:
       break;
     case Method::bof:
-      j["sigma_t"] = bilateral.sigma_t;
-      j["sigma_g"] = bilateral.sigma_g;
+      j["sigma_t"] =
+          bilateral.sigma_t == 0 ? nlohmann::json("auto") : nlohmann::json(bilateral.sigma_t);
+      j["sigma_g"] =
+          bilateral.sigma_g == 0 ? nlohmann::json("auto") : nlohmann::json(bilateral.sigma_g);
       j["window"] = bilateral.window;
       j["iterations"] = bilateral.iterations;
       j["kernel"] = bilateral.kernel == BilateralKernel::paper ? "paper" : "gaussian";
@@ -105,6 +124,10 @@ nlohmann::json FilterSettings::to_json() const {
       j["passes"] = linear.passes;
       j["boundary"] = std::string(to_string(linear.boundary));
       break;
+    case Method::kalman:
+      j["lambda"] = kalman.lambda == 0 ? nlohmann::json("auto") : nlohmann::json(kalman.lambda);
+      j["boundary"] = std::string(to_string(kalman.boundary));
+      break;
   }
   return j;
 }
@@ -124,6 +147,21 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       return r;
     }
     r.settings.nlpm.h = kNlpmAutoFactor * noise.sigma;
+  }
+  // bof and kalman: the same, for the parameters left at 0 (automatic).
+  const bool automatic_bof = settings.method == Method::bof &&
+                             (settings.bilateral.sigma_g == 0 || settings.bilateral.sigma_t == 0);
+  const bool automatic_kalman = settings.method == Method::kalman && settings.kalman.lambda == 0;
+  if (automatic_bof || automatic_kalman) {
+    const NoiseEstimate noise = estimate_noise(clip.rotation_view());
+    r.noise_sigma = noise.sigma;
+    if (noise.moving_joints == 0 || noise.sigma <= 0) {
+      r.unchanged = true;
+      return r;
+    }
+    r.settings.bilateral = automatic_bilateral(settings.bilateral, noise.sigma, clip.frame_time);
+    if (automatic_kalman)
+      r.settings.kalman.lambda = kalman_auto_lambda(noise.sigma, clip.frame_time);
   }
   return r;
 }
@@ -181,6 +219,8 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
       return NlpmJob{s.nlpm, io, {}}.run();
     case Method::none:
       return {};
+    case Method::kalman:
+      return KalmanJob{s.kalman, io}.run();
     default:
       return LinearFilterJob{s.linear, io}.run();
   }

@@ -193,13 +193,15 @@ bool write_clip_group(State& state, const std::string& clip_path, const ClipFiel
       problem = write_datasets(clip.get());
     }
   }
+  bool partial_skeleton = false;
   if (problem.empty() && new_skeleton) {
     problem = write_skeleton(state.skeletons.get(), name, *fields.skeleton);
-    if (!problem.empty()) H5Ldelete(state.skeletons.get(), name.c_str(), H5P_DEFAULT);
+    partial_skeleton = !problem.empty();
   }
   if (!problem.empty()) {
-    const std::string message = h5::with_detail(where + problem);
+    const std::string message = h5::with_detail(where + problem);  // before the clean-up
     chain.clear();
+    if (partial_skeleton) H5Ldelete(state.skeletons.get(), name.c_str(), H5P_DEFAULT);
     H5Ldelete(state.clips.get(), created.c_str(), H5P_DEFAULT);
     return state.fail(error, message);
   }

@@ -122,7 +122,7 @@ Status BilateralJob::run() const {
   const int frames = io.rotations.frames;
   const int begin = io.frame_begin, end = io.frame_stop();
   CurveScratch scratch;
-  if (implementation == Implementation::fast) {
+  if (implementation == Implementation::fast && params.reach() <= simd::kBilateralMaxFastReach) {
     simd::bilateral_rotations(params, io);
   } else {
     std::vector<Quat> curve(frames), out(frames);

@@ -52,8 +52,9 @@ void bilateral_filter_rotations(std::span<const Quat> curve, const BilateralPara
 struct BilateralJob {
   BilateralParams params;
   MotionIO io;
-  // fast: the SIMD rotations of kernels/simd/bilateral_simd.hpp (float32); reference: the double
-  // passes above. Translations take the same (scalar) path either way.
+  // fast: the SIMD rotations of kernels/simd/bilateral_simd.hpp (float32; reaches above
+  // simd::kBilateralMaxFastReach = 64 frames run the reference); reference: the double passes
+  // above. Translations take the same (scalar) path either way.
   Implementation implementation = Implementation::fast;
 
   Status validate() const;

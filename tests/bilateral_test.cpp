@@ -52,8 +52,12 @@ Quat sample(const std::vector<float>& tensor, int joints, int t, int j) {
   return load_quat(tensor.data() + (std::size_t(t) * joints + j) * 4);
 }
 
-Status run_bof(const BilateralParams& params, Clip& clip) {
-  return BilateralJob{params, clip.io()}.run();
+// The properties below hold for both implementations (the SIMD path up to float rounding).
+constexpr Implementation kImplementations[] = {Implementation::fast, Implementation::reference};
+
+Status run_bof(const BilateralParams& params, Clip& clip,
+               Implementation implementation = Implementation::fast) {
+  return BilateralJob{params, clip.io(), implementation}.run();
 }
 
 // The in-range index a mirror or hold read lands on, written out here independently.
@@ -221,17 +225,18 @@ TEST(Bilateral, CoordinateInvariance) {
   std::vector<float> moved(motion.size());
   for (std::size_t i = 0; i < motion.size(); i += 4)
     store_quat(a * load_quat(&motion[i]) * b, &moved[i]);
-  for (const BilateralParams& p : parameter_sets()) {
-    Clip plain(motion, frames, joints), transformed(moved, frames, joints);
-    ASSERT_TRUE(run_bof(p, plain).ok());
-    ASSERT_TRUE(run_bof(p, transformed).ok());
-    double worst = 0;
-    for (int t = 0; t < frames; ++t)
-      for (int j = 0; j < joints; ++j)
-        worst = std::max(worst, geodesic(a * sample(plain.filtered, joints, t, j) * b,
-                                         sample(transformed.filtered, joints, t, j)));
-    EXPECT_LT(worst, 1e-6) << describe(p);
-  }
+  for (Implementation impl : kImplementations)
+    for (const BilateralParams& p : parameter_sets()) {
+      Clip plain(motion, frames, joints), transformed(moved, frames, joints);
+      ASSERT_TRUE(run_bof(p, plain, impl).ok());
+      ASSERT_TRUE(run_bof(p, transformed, impl).ok());
+      double worst = 0;
+      for (int t = 0; t < frames; ++t)
+        for (int j = 0; j < joints; ++j)
+          worst = std::max(worst, geodesic(a * sample(plain.filtered, joints, t, j) * b,
+                                           sample(transformed.filtered, joints, t, j)));
+      EXPECT_LT(worst, 1e-6) << describe(p) << " " << to_string(impl);
+    }
 }
 
 TEST(Bilateral, TimeInvariance) {
@@ -240,18 +245,19 @@ TEST(Bilateral, TimeInvariance) {
   const std::vector<float> motion = with_gaussian_noise(
       test::random_motion(rng, frames + shift, joints), frames + shift, joints, 0.05, rng);
   const std::vector<float> later(motion.begin() + std::size_t(shift) * joints * 4, motion.end());
-  for (const BilateralParams& p : parameter_sets()) {
-    Clip whole(motion, frames + shift, joints), shifted(later, frames, joints);
-    ASSERT_TRUE(run_bof(p, whole).ok());
-    ASSERT_TRUE(run_bof(p, shifted).ok());
-    const int margin = p.reach() * p.iterations;
-    double worst = 0;
-    for (int t = margin; t < frames - margin; ++t)
-      for (int j = 0; j < joints; ++j)
-        worst = std::max(worst, geodesic(sample(whole.filtered, joints, t + shift, j),
-                                         sample(shifted.filtered, joints, t, j)));
-    EXPECT_LT(worst, 1e-9) << describe(p);
-  }
+  for (Implementation impl : kImplementations)
+    for (const BilateralParams& p : parameter_sets()) {
+      Clip whole(motion, frames + shift, joints), shifted(later, frames, joints);
+      ASSERT_TRUE(run_bof(p, whole, impl).ok());
+      ASSERT_TRUE(run_bof(p, shifted, impl).ok());
+      const int margin = p.reach() * p.iterations;
+      double worst = 0;
+      for (int t = margin; t < frames - margin; ++t)
+        for (int j = 0; j < joints; ++j)
+          worst = std::max(worst, geodesic(sample(whole.filtered, joints, t + shift, j),
+                                           sample(shifted.filtered, joints, t, j)));
+      EXPECT_LT(worst, 1e-9) << describe(p) << " " << to_string(impl);
+    }
 }
 
 TEST(Bilateral, LowersTheErrorOfNoisySmoothMotion) {
@@ -261,12 +267,14 @@ TEST(Bilateral, LowersTheErrorOfNoisySmoothMotion) {
   const std::vector<float> noisy = with_gaussian_noise(truth, frames, joints, 0.03, rng);
   const RotationView truth_view{truth.data(), frames, joints};
   const double before = test::rotation_errors({noisy.data(), frames, joints}, truth_view).rms;
-  for (const BilateralParams& p : parameter_sets()) {
-    Clip clip(noisy, frames, joints);
-    ASSERT_TRUE(run_bof(p, clip).ok());
-    const double after = test::rotation_errors(clip.output(), truth_view).rms;
-    EXPECT_LT(after, 0.75 * before) << describe(p) << ": " << before << " -> " << after;
-  }
+  for (Implementation impl : kImplementations)
+    for (const BilateralParams& p : parameter_sets()) {
+      Clip clip(noisy, frames, joints);
+      ASSERT_TRUE(run_bof(p, clip, impl).ok());
+      const double after = test::rotation_errors(clip.output(), truth_view).rms;
+      EXPECT_LT(after, 0.75 * before)
+          << describe(p) << " " << to_string(impl) << ": " << before << " -> " << after;
+    }
 }
 
 TEST(Bilateral, PopsDoNotSpreadIntoTheirNeighbours) {
@@ -312,22 +320,25 @@ TEST(Bilateral, KeepsAnIsolatedLargePop) {
   make_hemisphere_continuous({motion.data(), frames, 1});
   BilateralParams p;
   p.iterations = 1;
-  Clip bof(motion, frames, 1);
-  ASSERT_TRUE(run_bof(p, bof).ok());
-  EXPECT_LT(geodesic(sample(bof.filtered, 1, 30, 0), sample(motion, 1, 30, 0)), 1e-3);
-  EXPECT_GT(geodesic(sample(bof.filtered, 1, 30, 0), clean), 0.99);
+  for (Implementation impl : kImplementations) {
+    Clip bof(motion, frames, 1);
+    ASSERT_TRUE(run_bof(p, bof, impl).ok());
+    EXPECT_LT(geodesic(sample(bof.filtered, 1, 30, 0), sample(motion, 1, 30, 0)), 1e-3);
+    EXPECT_GT(geodesic(sample(bof.filtered, 1, 30, 0), clean), 0.99);
+  }
 }
 
 TEST(Bilateral, OneFrameClipIsCopied) {
   std::mt19937_64 rng(38);
   const std::vector<float> one = test::random_motion(rng, 1, 3);
-  for (const BilateralParams& p : parameter_sets()) {
-    Clip clip(one, 1, 3);
-    clip.add_translations({1.5f, -2, 3, 4, 5, 6, 7, 8, 9}, {1, 0, 1});
-    ASSERT_TRUE(run_bof(p, clip).ok()) << describe(p);
-    EXPECT_EQ(clip.filtered, clip.rotations) << describe(p);
-    EXPECT_EQ(clip.filtered_translations, clip.translations) << describe(p);
-  }
+  for (Implementation impl : kImplementations)
+    for (const BilateralParams& p : parameter_sets()) {
+      Clip clip(one, 1, 3);
+      clip.add_translations({1.5f, -2, 3, 4, 5, 6, 7, 8, 9}, {1, 0, 1});
+      ASSERT_TRUE(run_bof(p, clip, impl).ok()) << describe(p);
+      EXPECT_EQ(clip.filtered, clip.rotations) << describe(p);
+      EXPECT_EQ(clip.filtered_translations, clip.translations) << describe(p);
+    }
 }
 
 TEST(Bilateral, ReachLongerThanTheClipInEveryBoundaryMode) {
@@ -346,13 +357,15 @@ TEST(Bilateral, ReachLongerThanTheClipInEveryBoundaryMode) {
     p.sigma_g = 1.0;
     p.iterations = 2;
     p.boundary = boundary;
-    Clip clip(motion, 3, 1);
-    ASSERT_TRUE(run_bof(p, clip).ok()) << to_string(boundary);
     const std::vector<double> expected = scalar_bilateral(theta, p);
-    for (int t = 0; t < 3; ++t) {
-      EXPECT_LT(geodesic(sample(clip.filtered, 1, t, 0), exp(expected[t] * kAxis)), 1e-6)
-          << to_string(boundary) << " frame " << t;
-      EXPECT_GT(std::abs(expected[t] - theta[t]), 1e-3) << to_string(boundary);
+    for (Implementation impl : kImplementations) {
+      Clip clip(motion, 3, 1);
+      ASSERT_TRUE(run_bof(p, clip, impl).ok()) << to_string(boundary);
+      for (int t = 0; t < 3; ++t) {
+        EXPECT_LT(geodesic(sample(clip.filtered, 1, t, 0), exp(expected[t] * kAxis)), 1e-6)
+            << to_string(boundary) << " frame " << t << " " << to_string(impl);
+        EXPECT_GT(std::abs(expected[t] - theta[t]), 1e-3) << to_string(boundary);
+      }
     }
   }
 }
@@ -366,42 +379,44 @@ TEST(Bilateral, SlicesGiveBitIdenticalOutput) {
   std::normal_distribution<double> n(0.0, 5.0);
   for (float& p : positions) p = float(n(rng));
   const std::vector<std::uint8_t> which{1, 0, 1, 1, 0};
-  for (BilateralParams p : parameter_sets()) {
-    p.sigma_p = 3.0;
-    Clip full(motion, frames, joints);
-    full.add_translations(positions, which);
-    ASSERT_TRUE(run_bof(p, full).ok());
-    Clip sliced(motion, frames, joints);
-    sliced.add_translations(positions, which);
-    const float sentinel = 42.0f;
-    std::fill(sliced.filtered.begin(), sliced.filtered.end(), sentinel);
-    std::fill(sliced.filtered_translations.begin(), sliced.filtered_translations.end(), sentinel);
-    const int blocks[][4] = {{0, 2, 0, -1}, {2, 3, 0, -1}, {3, 5, 0, 30}, {3, 5, 45, -1}};
-    for (const auto& s : blocks) {
-      MotionIO io = sliced.io();
-      io.joint_begin = s[0];
-      io.joint_end = s[1];
-      io.frame_begin = s[2];
-      io.frame_end = s[3];
-      ASSERT_TRUE((BilateralJob{p, io}.run().ok()));
-    }
-    for (int t = 0; t < frames; ++t)
-      for (int j = 0; j < joints; ++j) {
-        const bool hole = j >= 3 && t >= 30 && t < 45;
-        const float* r = &sliced.filtered[(std::size_t(t) * joints + j) * 4];
-        const float* q = &sliced.filtered_translations[(std::size_t(t) * joints + j) * 3];
-        if (hole) {
-          EXPECT_EQ(r[0], sentinel) << describe(p) << ": wrote outside its slice";
-          EXPECT_EQ(q[0], sentinel) << describe(p) << ": wrote outside its slice";
-        } else {
-          EXPECT_EQ(std::memcmp(r, &full.filtered[(std::size_t(t) * joints + j) * 4], 16), 0)
-              << describe(p) << " t " << t << " j " << j;
-          EXPECT_EQ(
-              std::memcmp(q, &full.filtered_translations[(std::size_t(t) * joints + j) * 3], 12), 0)
-              << describe(p) << " t " << t << " j " << j;
-        }
+  for (Implementation impl : kImplementations)
+    for (BilateralParams p : parameter_sets()) {
+      p.sigma_p = 3.0;
+      Clip full(motion, frames, joints);
+      full.add_translations(positions, which);
+      ASSERT_TRUE(run_bof(p, full, impl).ok());
+      Clip sliced(motion, frames, joints);
+      sliced.add_translations(positions, which);
+      const float sentinel = 42.0f;
+      std::fill(sliced.filtered.begin(), sliced.filtered.end(), sentinel);
+      std::fill(sliced.filtered_translations.begin(), sliced.filtered_translations.end(), sentinel);
+      const int blocks[][4] = {{0, 2, 0, -1}, {2, 3, 0, -1}, {3, 5, 0, 30}, {3, 5, 45, -1}};
+      for (const auto& s : blocks) {
+        MotionIO io = sliced.io();
+        io.joint_begin = s[0];
+        io.joint_end = s[1];
+        io.frame_begin = s[2];
+        io.frame_end = s[3];
+        ASSERT_TRUE((BilateralJob{p, io, impl}.run().ok()));
       }
-  }
+      for (int t = 0; t < frames; ++t)
+        for (int j = 0; j < joints; ++j) {
+          const bool hole = j >= 3 && t >= 30 && t < 45;
+          const float* r = &sliced.filtered[(std::size_t(t) * joints + j) * 4];
+          const float* q = &sliced.filtered_translations[(std::size_t(t) * joints + j) * 3];
+          if (hole) {
+            EXPECT_EQ(r[0], sentinel) << describe(p) << ": wrote outside its slice";
+            EXPECT_EQ(q[0], sentinel) << describe(p) << ": wrote outside its slice";
+          } else {
+            EXPECT_EQ(std::memcmp(r, &full.filtered[(std::size_t(t) * joints + j) * 4], 16), 0)
+                << describe(p) << " t " << t << " j " << j;
+            EXPECT_EQ(
+                std::memcmp(q, &full.filtered_translations[(std::size_t(t) * joints + j) * 3], 12),
+                0)
+                << describe(p) << " t " << t << " j " << j;
+          }
+        }
+    }
 }
 
 TEST(Bilateral, TranslationsGetTheEuclideanBilateralFilter) {

@@ -84,8 +84,12 @@ std::vector<Case> all_kinds() {
           {"moving-mean", mean},        {"moving-mean 2 passes hold", mean_hold}};
 }
 
-Status run_linear(const LinearParams& params, Clip& clip) {
-  LinearFilterJob job{params, clip.io()};
+// The properties below hold for both implementations (the SIMD path up to float rounding).
+constexpr Implementation kImplementations[] = {Implementation::fast, Implementation::reference};
+
+Status run_linear(const LinearParams& params, Clip& clip,
+                  Implementation implementation = Implementation::fast) {
+  LinearFilterJob job{params, clip.io(), implementation};
   return job.run();
 }
 
@@ -107,17 +111,18 @@ TEST(LinearFilter, CoordinateInvariance) {
   std::vector<float> moved(motion.size());
   for (std::size_t i = 0; i < motion.size(); i += 4)
     store_quat(a * load_quat(&motion[i]) * b, &moved[i]);
-  for (const Case& c : all_kinds()) {
-    Clip plain(motion, frames, joints), transformed(moved, frames, joints);
-    ASSERT_TRUE(run_linear(c.params, plain).ok());
-    ASSERT_TRUE(run_linear(c.params, transformed).ok());
-    double worst = 0;
-    for (int t = 0; t < frames; ++t)
-      for (int j = 0; j < joints; ++j)
-        worst = std::max(worst, geodesic(a * sample(plain.filtered, joints, t, j) * b,
-                                         sample(transformed.filtered, joints, t, j)));
-    EXPECT_LT(worst, 1e-6) << c.name;
-  }
+  for (Implementation impl : kImplementations)
+    for (const Case& c : all_kinds()) {
+      Clip plain(motion, frames, joints), transformed(moved, frames, joints);
+      ASSERT_TRUE(run_linear(c.params, plain, impl).ok());
+      ASSERT_TRUE(run_linear(c.params, transformed, impl).ok());
+      double worst = 0;
+      for (int t = 0; t < frames; ++t)
+        for (int j = 0; j < joints; ++j)
+          worst = std::max(worst, geodesic(a * sample(plain.filtered, joints, t, j) * b,
+                                           sample(transformed.filtered, joints, t, j)));
+      EXPECT_LT(worst, 1e-6) << c.name << " " << to_string(impl);
+    }
 }
 
 TEST(LinearFilter, TimeInvariance) {
@@ -127,20 +132,21 @@ TEST(LinearFilter, TimeInvariance) {
   const std::vector<float> motion = with_gaussian_noise(
       test::random_motion(rng, frames + shift, joints), frames + shift, joints, 0.02, rng);
   const std::vector<float> later(motion.begin() + std::size_t(shift) * joints * 4, motion.end());
-  for (const Case& c : all_kinds()) {
-    Clip whole(motion, frames + shift, joints), shifted(later, frames, joints);
-    ASSERT_TRUE(run_linear(c.params, whole).ok());
-    ASSERT_TRUE(run_linear(c.params, shifted).ok());
-    const int k = int(linear_mask(c.params, whole.frame_time).mask.size() / 2);
-    const int margin = k * linear_passes(c.params);
-    ASSERT_LT(2 * margin, frames) << c.name;
-    double worst = 0;
-    for (int t = margin; t < frames - margin; ++t)
-      for (int j = 0; j < joints; ++j)
-        worst = std::max(worst, geodesic(sample(whole.filtered, joints, t + shift, j),
-                                         sample(shifted.filtered, joints, t, j)));
-    EXPECT_LT(worst, 1e-9) << c.name;
-  }
+  for (Implementation impl : kImplementations)
+    for (const Case& c : all_kinds()) {
+      Clip whole(motion, frames + shift, joints), shifted(later, frames, joints);
+      ASSERT_TRUE(run_linear(c.params, whole, impl).ok());
+      ASSERT_TRUE(run_linear(c.params, shifted, impl).ok());
+      const int k = int(linear_mask(c.params, whole.frame_time).mask.size() / 2);
+      const int margin = k * linear_passes(c.params);
+      ASSERT_LT(2 * margin, frames) << c.name;
+      double worst = 0;
+      for (int t = margin; t < frames - margin; ++t)
+        for (int j = 0; j < joints; ++j)
+          worst = std::max(worst, geodesic(sample(whole.filtered, joints, t + shift, j),
+                                           sample(shifted.filtered, joints, t, j)));
+      EXPECT_LT(worst, 1e-9) << c.name << " " << to_string(impl);
+    }
 }
 
 TEST(LinearFilter, LowersTheErrorOfNoisySmoothMotion) {
@@ -214,42 +220,44 @@ TEST(LinearFilter, SlicesGiveBitIdenticalOutput) {
   std::normal_distribution<double> n(0.0, 5.0);
   for (float& p : positions) p = float(n(rng));
   const std::vector<std::uint8_t> which{1, 0, 1, 1, 0};
-  for (const Case& c : all_kinds()) {
-    Clip full(motion, frames, joints);
-    full.add_translations(positions, which);
-    ASSERT_TRUE(run_linear(c.params, full).ok());
-    Clip sliced(motion, frames, joints);
-    sliced.add_translations(positions, which);
-    const float sentinel = 42.0f;
-    std::fill(sliced.filtered.begin(), sliced.filtered.end(), sentinel);
-    std::fill(sliced.filtered_translations.begin(), sliced.filtered_translations.end(), sentinel);
-    // Joint blocks {0}, {1, 2}, {3, 4} over all frames, except frames [40, 50) of block {3, 4}.
-    const int blocks[][4] = {{0, 1, 0, -1}, {1, 3, 0, -1}, {3, 5, 0, 40}, {3, 5, 50, -1}};
-    for (const auto& s : blocks) {
-      MotionIO io = sliced.io();
-      io.joint_begin = s[0];
-      io.joint_end = s[1];
-      io.frame_begin = s[2];
-      io.frame_end = s[3];
-      ASSERT_TRUE((LinearFilterJob{c.params, io}.run().ok()));
-    }
-    for (int t = 0; t < frames; ++t)
-      for (int j = 0; j < joints; ++j) {
-        const bool hole = j >= 3 && t >= 40 && t < 50;
-        const float* r = &sliced.filtered[(std::size_t(t) * joints + j) * 4];
-        const float* p = &sliced.filtered_translations[(std::size_t(t) * joints + j) * 3];
-        if (hole) {
-          EXPECT_EQ(r[0], sentinel) << c.name << ": wrote outside its slice";
-          EXPECT_EQ(p[0], sentinel) << c.name << ": wrote outside its slice";
-        } else {
-          EXPECT_EQ(std::memcmp(r, &full.filtered[(std::size_t(t) * joints + j) * 4], 16), 0)
-              << c.name << " t " << t << " j " << j;
-          EXPECT_EQ(
-              std::memcmp(p, &full.filtered_translations[(std::size_t(t) * joints + j) * 3], 12), 0)
-              << c.name << " t " << t << " j " << j;
-        }
+  for (Implementation impl : kImplementations)
+    for (const Case& c : all_kinds()) {
+      Clip full(motion, frames, joints);
+      full.add_translations(positions, which);
+      ASSERT_TRUE(run_linear(c.params, full, impl).ok());
+      Clip sliced(motion, frames, joints);
+      sliced.add_translations(positions, which);
+      const float sentinel = 42.0f;
+      std::fill(sliced.filtered.begin(), sliced.filtered.end(), sentinel);
+      std::fill(sliced.filtered_translations.begin(), sliced.filtered_translations.end(), sentinel);
+      // Joint blocks {0}, {1, 2}, {3, 4} over all frames, except frames [40, 50) of block {3, 4}.
+      const int blocks[][4] = {{0, 1, 0, -1}, {1, 3, 0, -1}, {3, 5, 0, 40}, {3, 5, 50, -1}};
+      for (const auto& s : blocks) {
+        MotionIO io = sliced.io();
+        io.joint_begin = s[0];
+        io.joint_end = s[1];
+        io.frame_begin = s[2];
+        io.frame_end = s[3];
+        ASSERT_TRUE((LinearFilterJob{c.params, io, impl}.run().ok()));
       }
-  }
+      for (int t = 0; t < frames; ++t)
+        for (int j = 0; j < joints; ++j) {
+          const bool hole = j >= 3 && t >= 40 && t < 50;
+          const float* r = &sliced.filtered[(std::size_t(t) * joints + j) * 4];
+          const float* p = &sliced.filtered_translations[(std::size_t(t) * joints + j) * 3];
+          if (hole) {
+            EXPECT_EQ(r[0], sentinel) << c.name << ": wrote outside its slice";
+            EXPECT_EQ(p[0], sentinel) << c.name << ": wrote outside its slice";
+          } else {
+            EXPECT_EQ(std::memcmp(r, &full.filtered[(std::size_t(t) * joints + j) * 4], 16), 0)
+                << c.name << " t " << t << " j " << j;
+            EXPECT_EQ(
+                std::memcmp(p, &full.filtered_translations[(std::size_t(t) * joints + j) * 3], 12),
+                0)
+                << c.name << " t " << t << " j " << j;
+          }
+        }
+    }
 }
 
 TEST(LinearFilter, TranslationsGetTheSameMaskAndUntranslatedJointsAreCopied) {

@@ -57,8 +57,8 @@ void Pass(const MaskConstants& mc, Boundary boundary, CurvePlanes& p, int frames
   for (std::size_t r = 1; r <= k; ++r) {
     float* row = p.weights.data() + (r - 1) * stride;
     for (std::size_t i = first; i < stop + k; i += lanes) {
-      const V dist = Geodesic(d, LoadQuat(d, ext, stride, i), LoadQuat(d, ext, stride, i + r));
-      const V x = mc.paper ? dist : hn::Mul(dist, dist);
+      const auto a = LoadQuat(d, ext, stride, i), b = LoadQuat(d, ext, stride, i + r);
+      const V x = mc.paper ? Geodesic(d, a, b) : GeodesicSquared(d, a, b);
       hn::StoreU(hn::Exp(d, hn::Mul(neg_scale, x)), d, row + i);
     }
   }
@@ -124,11 +124,9 @@ void bilateral_rotations(const BilateralParams& params, const MotionIO& io) {
   const int frames = io.rotations.frames;
   CurvePlanes planes;
   planes.reserve(frames, params.reach(), params.reach());
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    load_joint(io.rotations, j, planes);
-    bilateral_curve(params, planes, frames, io.frame_begin, io.frame_stop());
-    store_joint(planes, io.frame_begin, io.frame_stop(), io.filtered_rotations, j);
-  }
+  for_each_joint_curve(io, planes, [&](CurvePlanes& p) {
+    bilateral_curve(params, p, frames, io.frame_begin, io.frame_stop());
+  });
 }
 
 }  // namespace mocap::simd

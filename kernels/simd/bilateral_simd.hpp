@@ -9,6 +9,10 @@
 
 namespace mocap::simd {
 
+// The widest reach the fast path takes: it keeps k rows of range weights per joint (k x F floats),
+// so BilateralJob runs wider windows (sigma_t above 21 frames) on the reference.
+inline constexpr int kBilateralMaxFastReach = 64;
+
 // All params.iterations passes of bof over one joint's curve in planes.input (frames samples);
 // writes planes.output[begin, end). planes must be reserved for (frames, params.reach(),
 // params.reach()).

@@ -33,17 +33,28 @@ void CurvePlanes::reserve(int frames, int reach, int weight_rows) {
   weights.resize(std::size_t(weight_rows) * stride);
 }
 
-void load_joint(RotationView rotations, int joint, CurvePlanes& planes) {
+void load_joints(RotationView rotations, int first, std::size_t stride,
+                 std::vector<std::vector<float>>& curves) {
+  // The planes' base pointers, hoisted: the copy is a transposition of [F][block][4] rows.
+  std::vector<float*> planes;
+  for (auto& curve : curves)
+    for (std::size_t c = 0; c < 4; ++c) planes.push_back(curve.data() + c * stride);
+  const std::size_t width = planes.size();
   for (int t = 0; t < rotations.frames; ++t) {
-    const float* q = rotations.at(t, joint);
-    for (std::size_t c = 0; c < 4; ++c) planes.input[c * planes.stride + std::size_t(t)] = q[c];
+    const float* row = rotations.at(t, first);
+    for (std::size_t i = 0; i < width; ++i) planes[i][t] = row[i];
   }
 }
 
-void store_joint(const CurvePlanes& planes, int begin, int end, RotationSpan out, int joint) {
+void store_joints(const std::vector<std::vector<float>>& curves, std::size_t stride, int begin,
+                  int end, RotationSpan out, int first) {
+  std::vector<const float*> planes;
+  for (const auto& curve : curves)
+    for (std::size_t c = 0; c < 4; ++c) planes.push_back(curve.data() + c * stride);
+  const std::size_t width = planes.size();
   for (int t = begin; t < end; ++t) {
-    float* q = out.at(t, joint);
-    for (std::size_t c = 0; c < 4; ++c) q[c] = planes.output[c * planes.stride + std::size_t(t)];
+    float* row = out.at(t, first);
+    for (std::size_t i = 0; i < width; ++i) row[i] = planes[i][t];
   }
 }
 

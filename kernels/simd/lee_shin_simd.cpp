@@ -75,11 +75,9 @@ void lee_shin_rotations(std::span<const double> mask, int passes, Boundary bound
   const int frames = io.rotations.frames;
   CurvePlanes planes;
   planes.reserve(frames, int(mask.size() / 2), 0);
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    load_joint(io.rotations, j, planes);
-    lee_shin_curve(mask, passes, boundary, planes, frames, io.frame_begin, io.frame_stop());
-    store_joint(planes, io.frame_begin, io.frame_stop(), io.filtered_rotations, j);
-  }
+  for_each_joint_curve(io, planes, [&](CurvePlanes& p) {
+    lee_shin_curve(mask, passes, boundary, p, frames, io.frame_begin, io.frame_stop());
+  });
 }
 
 }  // namespace mocap::simd

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <span>
 #include <vector>
 
 #include "hwy/highway.h"
@@ -23,9 +24,9 @@ void AccumulatePoseBand(const float* planes, std::size_t stride, std::size_t cou
   for (std::size_t u = 0; u < count; u += lanes) {
     const auto a = LoadQuat(d, planes, stride, u);
     for (std::size_t delta = 1; delta <= std::size_t(max_delta); ++delta) {
-      const auto dist = Geodesic(d, a, LoadQuat(d, planes, stride, u + delta));
+      const auto d2 = GeodesicSquared(d, a, LoadQuat(d, planes, stride, u + delta));
       float* row = band + (delta - 1) * stride + u;
-      hn::StoreU(hn::MulAdd(dist, dist, hn::LoadU(d, row)), d, row);
+      hn::StoreU(hn::Add(hn::LoadU(d, row), d2), d, row);
     }
   }
 }
@@ -73,43 +74,65 @@ namespace {
 // Frames per pass over the band, as kernels/nlpm.cpp: whole anchor blocks.
 constexpr long kChunkFrames = 16 * kNlpmAnchorFrames;
 
-void put(std::vector<float>& planes, std::size_t stride, std::size_t i, const float* q) {
-  for (std::size_t c = 0; c < 4; ++c) planes[c * stride + i] = q[c];
-}
+// Every joint's curve over the frames one chunk reads, [first, first + count), boundary-extended
+// outside [0, F): 4 planes of `stride` per joint. Filled row by row, so that the transposition of
+// the [F][J][4] tensor reads it sequentially, once per chunk, for the band and the averaging.
+struct ChunkCurves {
+  long first = 0;
+  std::size_t count = 0, stride = 0;
+  std::vector<std::vector<float>> joints;  // [J][4 * stride]
+
+  void load(RotationView rotations, Boundary boundary, long from, std::size_t frames) {
+    first = from;
+    count = frames;
+    stride = plane_size(count + kMaxLanes);
+    joints.resize(std::size_t(rotations.joints));
+    std::vector<float*> planes;
+    for (auto& curve : joints) {
+      curve.assign(4 * stride, 0.0f);
+      std::fill_n(curve.begin(), stride, 1.0f);  // identities past the end
+      for (std::size_t c = 0; c < 4; ++c) planes.push_back(curve.data() + c * stride);
+    }
+    const std::size_t width = planes.size();
+    for (std::size_t i = 0; i < count; ++i) {
+      const long t = first + long(i);
+      if (t >= 0 && t < rotations.frames) {
+        const float* row = rotations.at(int(t), 0);
+        for (std::size_t k = 0; k < width; ++k) planes[k][i] = row[k];
+        continue;
+      }
+      for (int j = 0; j < rotations.joints; ++j) {
+        float q[4];
+        store_quat(extended_rotation(rotations, j, t, boundary), q);
+        for (std::size_t c = 0; c < 4; ++c) planes[4 * std::size_t(j) + c][i] = q[c];
+      }
+    }
+  }
+
+  const float* at(int joint, long t) const {
+    return joints[std::size_t(joint)].data() + std::size_t(t - first);
+  }
+};
 
 // The distance joints' squared distances summed, then E[u][delta] = e(u, u + delta) in double,
 // for u in [u_begin, u_end), 0 <= delta <= K; the lower half by symmetry.
 class Band {
  public:
-  void compute(RotationView rotations, const std::vector<int>& joints, Boundary boundary,
-               long u_begin, long u_end, int search) {
+  void compute(const ChunkCurves& curves, const std::vector<int>& joints, long u_begin, long u_end,
+               int search) {
     u_begin_ = u_begin;
-    search_ = search;
     const std::size_t count = std::size_t(u_end - u_begin);
-    const std::size_t stride = plane_size(count + std::size_t(search) + kMaxLanes);
-    planes_.assign(4 * stride, 0.0f);
-    std::fill_n(planes_.begin(), stride, 1.0f);  // identities past the end
-    sums_.assign(std::size_t(search) * stride, 0.0f);
-    for (int joint : joints) {
-      for (std::size_t i = 0; i < count + std::size_t(search); ++i) {
-        const long t = u_begin + long(i);
-        if (t >= 0 && t < rotations.frames) {
-          put(planes_, stride, i, rotations.at(int(t), joint));
-        } else {
-          float q[4];
-          store_quat(extended_rotation(rotations, joint, t, boundary), q);
-          put(planes_, stride, i, q);
-        }
-      }
-      accumulate_pose_band(planes_.data(), stride, count, search, sums_.data());
-    }
+    sums_.assign(std::size_t(search) * curves.stride, 0.0f);
+    // In joint order, so that every e(u, v) sums its joints in the same order whatever the chunk.
+    for (int joint : joints)
+      accumulate_pose_band(curves.at(joint, u_begin), curves.stride, count, search, sums_.data());
     width_ = std::size_t(search) + 1;
     values_.resize(count * width_);
     const double joint_count = double(joints.size());
     for (std::size_t u = 0; u < count; ++u) {
       values_[u * width_] = 0.0;  // e(u, u)
       for (std::size_t delta = 1; delta < width_; ++delta)
-        values_[u * width_ + delta] = double(sums_[(delta - 1) * stride + u]) / joint_count;
+        values_[u * width_ + delta] = double(sums_[(delta - 1) * curves.stride + u]) / joint_count;
     }
   }
 
@@ -122,10 +145,9 @@ class Band {
   }
 
  private:
-  std::vector<float> planes_, sums_;
+  std::vector<float> sums_;
   std::vector<double> values_;
   long u_begin_ = 0;
-  int search_ = 0;
   std::size_t width_ = 0;
 };
 
@@ -153,7 +175,7 @@ double window_weights(long t, long frames, int search, int patch, double h,
   return sum + self;
 }
 
-// Buffers of one chunk of output frames [begin, end).
+// The weights of one chunk's output frames [begin, end).
 struct ChunkWeights {
   std::size_t wstride = 0;
   std::vector<double> f;       // [frame][2K + 1], for the translations
@@ -162,28 +184,29 @@ struct ChunkWeights {
   std::vector<double> inv_sum_d;
 };
 
+// Output frames [begin, end) of io's joints. The window of a frame near the clip's ends reaches
+// extended frames: their weight is 0, and they are unit quaternions, so their Log stays finite.
 void average_chunk(const NlpmJob& job, int search, long begin, long end, const ChunkWeights& w,
-                   std::vector<float>& planes, std::vector<float>& out) {
+                   const ChunkCurves& curves, std::vector<std::vector<float>>& out) {
   const MotionIO& io = job.io;
   const int frames = io.rotations.frames;
   const std::size_t count = std::size_t(end - begin);
-  const std::size_t stride = plane_size(count + 2 * std::size_t(search) + kMaxLanes);
-  planes.assign(4 * stride, 0.0f);
-  std::fill_n(planes.begin(), stride, 1.0f);
-  out.resize(4 * stride);
+  out.resize(std::size_t(io.joint_stop() - io.joint_begin));
   for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    // Frames outside [0, F) get weight 0; any unit quaternion keeps their Log finite.
-    for (std::size_t i = 0; i < count + 2 * std::size_t(search); ++i) {
-      const long s = std::clamp(begin - search + long(i), 0L, long(frames) - 1);
-      put(planes, stride, i, io.rotations.at(int(s), j));
-    }
+    std::vector<float>& result = out[std::size_t(j - io.joint_begin)];
+    result.resize(4 * curves.stride);
     HWY_DYNAMIC_DISPATCH(AverageTangent)
-    (planes.data(), stride, count, search, w.rows.data(), w.inv_sum.data(), w.wstride, out.data());
-    for (std::size_t i = 0; i < count; ++i) {
-      float* q = io.filtered_rotations.at(int(begin + long(i)), j);
-      for (std::size_t c = 0; c < 4; ++c) q[c] = out[c * stride + i];
-    }
+    (curves.at(j, begin - search), curves.stride, count, search, w.rows.data(), w.inv_sum.data(),
+     w.wstride, result.data());
   }
+  std::vector<const float*> planes;
+  for (const auto& result : out)
+    for (std::size_t c = 0; c < 4; ++c) planes.push_back(result.data() + c * curves.stride);
+  for (std::size_t i = 0; i < count; ++i) {
+    float* row = io.filtered_rotations.at(int(begin + long(i)), io.joint_begin);
+    for (std::size_t k = 0; k < planes.size(); ++k) row[k] = planes[k][i];
+  }
+
   if (!io.has_translations()) return;
   const std::size_t width = 2 * std::size_t(search) + 1;
   for (long t = begin; t < end; ++t) {
@@ -212,17 +235,20 @@ void nlpm_tangent(const NlpmJob& job) {
   const int patch = params.patch_radius;
   const std::size_t width = 2 * std::size_t(search) + 1;
   const std::vector<int> joints = nlpm_distance_joints(job.distance_joints, io.rotations.joints);
+  ChunkCurves curves;
   Band band;
   ChunkWeights w;
   std::vector<double> sums(width);
-  std::vector<float> planes, out;
+  std::vector<std::vector<float>> out;
   const long first_anchor = frame_begin / kNlpmAnchorFrames * kNlpmAnchorFrames;
   for (long chunk = first_anchor; chunk < frame_end; chunk += kChunkFrames) {
     const long chunk_end = std::min(chunk + kChunkFrames, frame_end);
     // As kernels/nlpm.cpp: D(t, t + delta) for t in the chunk reads E[u][delta] for u in
-    // [t - P, t + P], and through symmetry down to u = chunk - P - K.
-    band.compute(io.rotations, joints, params.boundary, chunk - patch - search, chunk_end + patch,
-                 search);
+    // [t - P, t + P], and through symmetry down to u = chunk - P - K; E[u][delta] reads frame
+    // u + delta. The averaging reads [t - K, t + K], inside the same range.
+    const long u_begin = chunk - patch - search, u_end = chunk_end + patch;
+    curves.load(io.rotations, params.boundary, u_begin, std::size_t(u_end + search - u_begin));
+    band.compute(curves, joints, u_begin, u_end, search);
     const long out_begin = std::max(chunk, frame_begin);
     const std::size_t count = std::size_t(chunk_end - out_begin);
     w.wstride = plane_size(count);
@@ -252,7 +278,7 @@ void nlpm_tangent(const NlpmJob& job) {
                 band.at(t + 1 + patch, delta) - band.at(t - patch, delta);
       }
     }
-    average_chunk(job, search, out_begin, chunk_end, w, planes, out);
+    average_chunk(job, search, out_begin, chunk_end, w, curves, out);
   }
 }
 

@@ -1,0 +1,195 @@
+// Micro-benchmarks of the filter kernels, scalar reference against Highway SIMD (the active
+// target), in joint-frames per second (items_per_second). Each benchmark filters one synthetic
+// clip (smooth random motion plus 0.03 rad noise) per iteration.
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "kernels/bilateral.hpp"
+#include "kernels/linear_filter.hpp"
+#include "kernels/nlpm.hpp"
+#include "kernels/noise_model.hpp"
+#include "kernels/quaternion.hpp"
+#include "kernels/simd/band_geodesics.hpp"
+#include "kernels/simd/quat_batch.hpp"
+
+namespace mocap {
+namespace {
+
+// Smooth random motion (a few sinusoids in the tangent space of a random base rotation per
+// joint) plus gaussian noise; hemisphere-continuous.
+std::vector<float> synthetic_motion(int frames, int joints, std::uint64_t seed = 7) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<float> out(std::size_t(frames) * std::size_t(joints) * 4);
+  for (int j = 0; j < joints; ++j) {
+    const Quat base = normalized({g(rng), g(rng), g(rng), g(rng)});
+    const Vec3 amplitude{0.6 * u(rng), 0.6 * u(rng), 0.6 * u(rng)};
+    const Vec3 frequency{0.05 * std::abs(u(rng)), 0.05 * std::abs(u(rng)), 0.05 * std::abs(u(rng))};
+    for (int t = 0; t < frames; ++t) {
+      const Vec3 v{amplitude.x * std::sin(frequency.x * t), amplitude.y * std::sin(frequency.y * t),
+                   amplitude.z * std::sin(frequency.z * t + 1)};
+      store_quat(base * exp(v), out.data() + (std::size_t(t) * std::size_t(joints) + j) * 4);
+    }
+  }
+  add_noise(GaussianNoise{0.03, seed}, {out.data(), frames, joints});
+  make_hemisphere_continuous({out.data(), frames, joints});
+  return out;
+}
+
+struct Fixture {
+  int frames, joints;
+  std::vector<float> in, out;
+  MotionIO io;
+  Fixture(int f, int j) : frames(f), joints(j), in(synthetic_motion(f, j)), out(in.size()) {
+    io.rotations = {in.data(), f, j};
+    io.filtered_rotations = {out.data(), f, j};
+  }
+  void count(benchmark::State& state) const {
+    state.SetItemsProcessed(state.iterations() * std::int64_t(frames) * joints);
+    state.SetLabel(std::string(simd::active_target()));
+  }
+};
+
+Implementation implementation_of(const benchmark::State& state) {
+  return state.range(0) == 0 ? Implementation::reference : Implementation::fast;
+}
+
+// Args: implementation (0 reference, 1 fast), joints, frames.
+void BM_Bof(benchmark::State& state) {
+  Fixture f(int(state.range(2)), int(state.range(1)));
+  const BilateralJob job{BilateralParams{}, f.io, implementation_of(state)};
+  for (auto _ : state) {
+    job.run();
+    benchmark::DoNotOptimize(f.out.data());
+  }
+  f.count(state);
+}
+// 31 joints (CMU) x 1000 frames, and Courty's example: 75 joints x 150 frames.
+BENCHMARK(BM_Bof)
+    ->ArgNames({"fast", "J", "F"})
+    ->Args({0, 31, 1000})
+    ->Args({1, 31, 1000})
+    ->Args({0, 75, 150})
+    ->Args({1, 75, 150})
+    ->Unit(benchmark::kMillisecond);
+
+void BM_Nlpm(benchmark::State& state) {
+  Fixture f(int(state.range(2)), int(state.range(1)));
+  NlpmParams params;
+  params.h = 0.03;
+  const NlpmJob job{params, f.io, {}, implementation_of(state)};
+  for (auto _ : state) {
+    job.run();
+    benchmark::DoNotOptimize(f.out.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_Nlpm)
+    ->ArgNames({"fast", "J", "F"})
+    ->Args({0, 31, 1000})
+    ->Args({1, 31, 1000})
+    ->Unit(benchmark::kMillisecond);
+
+void BM_Gaussian(benchmark::State& state) {
+  Fixture f(int(state.range(2)), int(state.range(1)));
+  const LinearFilterJob job{LinearParams{}, f.io, implementation_of(state)};
+  for (auto _ : state) {
+    job.run();
+    benchmark::DoNotOptimize(f.out.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_Gaussian)
+    ->ArgNames({"fast", "J", "F"})
+    ->Args({0, 31, 1000})
+    ->Args({1, 31, 1000})
+    ->Unit(benchmark::kMillisecond);
+
+// The band of geodesic distances d(q_t, q_{t+r}), 1 <= r <= k, of every joint: the layout
+// decision. Args: layout (0 scalar double, 1 lanes = time, 2 lanes = joints), joints, frames, k.
+void BM_BandGeodesics(benchmark::State& state) {
+  Fixture f(int(state.range(2)), int(state.range(1)));
+  const int k = int(state.range(3));
+  std::vector<float> out;
+  std::vector<double> scalar(std::size_t(f.frames) * std::size_t(f.joints) * std::size_t(k));
+  for (auto _ : state) {
+    switch (state.range(0)) {
+      case 0: {
+        const RotationView view = f.io.rotations;
+        std::size_t i = 0;
+        for (int j = 0; j < f.joints; ++j)
+          for (int r = 1; r <= k; ++r)
+            for (int t = 0; t + r < f.frames; ++t)
+              scalar[i++] = geodesic(load_quat(view.at(t, j)), load_quat(view.at(t + r, j)));
+        benchmark::DoNotOptimize(scalar.data());
+        break;
+      }
+      case 1:
+        simd::band_geodesics_lanes_time(f.io.rotations, k, out);
+        break;
+      default:
+        simd::band_geodesics_lanes_joints(f.io.rotations, k, out);
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_BandGeodesics)
+    ->ArgNames({"layout", "J", "F", "k"})
+    ->ArgsProduct({{0, 1, 2}, {31, 8, 5}, {1000}, {3, 10}});
+
+// Log and Exp of 4096 samples: scalar double (quaternion.hpp) against the vector batch.
+// Arg: 0 scalar, 1 SIMD. Items: samples.
+void BM_Log(benchmark::State& state) {
+  const std::size_t n = 4096;
+  const std::vector<float> q = synthetic_motion(int(n), 1);
+  std::vector<float> planes(4 * n), out(3 * n);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t c = 0; c < 4; ++c) planes[c * n + i] = q[4 * i + c];
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 v = log(load_quat(&q[4 * i]));
+        out[i] = float(v.x);
+        out[n + i] = float(v.y);
+        out[2 * n + i] = float(v.z);
+      }
+    } else {
+      simd::log_planes(planes, out, n);
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(n));
+}
+BENCHMARK(BM_Log)->Arg(0)->Arg(1);
+
+void BM_Exp(benchmark::State& state) {
+  const std::size_t n = 4096;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g(0.0, 0.5);
+  std::vector<float> planes(3 * n), out(4 * n);
+  for (float& x : planes) x = float(g(rng));
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const Quat q = exp(Vec3{planes[i], planes[n + i], planes[2 * n + i]});
+        out[i] = float(q.w);
+        out[n + i] = float(q.x);
+        out[2 * n + i] = float(q.y);
+        out[3 * n + i] = float(q.z);
+      }
+    } else {
+      simd::exp_planes(planes, out, n);
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(n));
+}
+BENCHMARK(BM_Exp)->Arg(0)->Arg(1);
+
+}  // namespace
+}  // namespace mocap

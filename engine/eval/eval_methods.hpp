@@ -1,0 +1,35 @@
+#pragma once
+// Runs one eval method on one segment of a noisy clip: at a grid point, or with the engine's
+// automatic parameters (what a user gets without giving any):
+//   bof          sigma_g and sigma_t from sigma_hat (automatic_bilateral,
+//   engine/filter_settings.hpp) nlpm         h = kNlpmAutoFactor sigma_hat
+//   (engine/filter_settings.hpp), K = 10, P = 5 gaussian     sigma_t = 1 frame;  butterworth  order
+//   2, 6 Hz;  moving-mean  5 passes kalman       lambda = kalman_auto_lambda(sigma_hat, frame_time)
+//   (kernels/kalman.hpp)
+// Rotations only: the noise models touch rotations, so eval keeps every translation as it is and
+// the position metrics measure what the rotation filter did.
+#include <nlohmann/json.hpp>
+
+#include "engine/eval/eval_spec.hpp"
+#include "kernels/status.hpp"
+#include "kernels/tensor.hpp"
+
+namespace mocap::engine::eval {
+
+struct SegmentJob {
+  RotationView noisy;   // the segment's frames, hemisphere-continuous
+  RotationSpan output;  // same shape
+  double frame_time = 1.0 / 120;
+  double sigma_hat = 0;  // the segment's estimated noise (spec "Noise level estimate")
+};
+
+// Filters `job` with `method` at `point`, or automatically when point is null. A segment of one
+// frame, or one whose automatic parameters need a noise level and whose sigma_hat is 0 (nothing
+// moves), is copied. `resolved` (optional) receives the parameters actually used.
+Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
+                      nlohmann::json* resolved);
+
+// The automatic rule of a method, as the report states it.
+std::string automatic_rule(EvalMethod method);
+
+}  // namespace mocap::engine::eval

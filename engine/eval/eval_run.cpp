@@ -1,0 +1,191 @@
+#include "engine/eval/eval_run.hpp"
+
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include "engine/eval/eval_methods.hpp"
+#include "kernels/noise_estimate.hpp"
+#include "kernels/noise_model.hpp"
+
+namespace mocap::engine::eval {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+RotationView segment_view(const std::vector<float>& rotations, int joints, const Segment& s) {
+  return {rotations.data() + std::size_t(s.begin) * std::size_t(joints) * 4, s.frames(), joints};
+}
+RotationSpan segment_span(std::vector<float>& rotations, int joints, const Segment& s) {
+  return {rotations.data() + std::size_t(s.begin) * std::size_t(joints) * 4, s.frames(), joints};
+}
+
+}  // namespace
+
+std::uint64_t noise_seed(std::uint64_t seed, const std::string& clip,
+                         const std::string& condition) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : clip + '\n' + condition) h = (h ^ c) * 1099511628211ull;
+  std::uint64_t z = seed + h + 0x9e3779b97f4a7c15ull;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
+
+std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condition,
+                              std::uint64_t seed) {
+  std::vector<float> rotations = clean.rotations;
+  const RotationSpan span{rotations.data(), clean.frames, clean.joints()};
+  if (condition.is_gaussian()) {
+    add_noise(GaussianNoise{condition.sigma, seed}, span);
+  } else {
+    ImpulseNoise noise = condition.impulse;
+    noise.seed = seed;
+    add_noise(noise, span);
+  }
+  return rotations;
+}
+
+// The impossible steps are a property of the source, so eval finds them in the clean clip: every
+// method and noise condition then sees the same segments, and the synthetic noise (whose pops
+// stay below the threshold anyway) can neither add nor hide a cut.
+EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config) {
+  EvalClip c;
+  c.name = std::move(name);
+  c.clean = std::move(clean);
+  if (config.split_impossible)
+    c.steps = find_impossible_steps(c.clean.rotation_view(), c.clean.frame_time, config.split);
+  c.segments = split_segments(c.clean.frames, c.steps);
+  c.geometry = describe_clip(c.clean, config.unit_cm, c.segments);
+  c.reference = make_reference(c.clean, c.geometry, c.segments);
+  return c;
+}
+
+Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method,
+                   const ParamPoint* point, std::vector<float>& out, nlohmann::json* resolved) {
+  const int joints = clip.clean.joints();
+  out.resize(noisy.rotations.size());
+  if (resolved) *resolved = nlohmann::json::array();
+  for (std::size_t s = 0; s < clip.segments.size(); ++s) {
+    const Segment& seg = clip.segments[s];
+    SegmentJob job{segment_view(noisy.rotations, joints, seg), segment_span(out, joints, seg),
+                   clip.clean.frame_time, noisy.sigma_hats[s]};
+    nlohmann::json used;
+    if (Status st = filter_segment(method, point, job, resolved ? &used : nullptr); !st)
+      return Status::error(fmt::format("frames {}-{}: {}", seg.begin, seg.end, st.message()));
+    if (resolved && seg.frames() >= 2) {
+      used["frames"] = {seg.begin, seg.end};
+      used["sigma_hat"] = noisy.sigma_hats[s];
+      resolved->push_back(used);
+    }
+  }
+  return {};
+}
+
+EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config,
+                           const std::function<void(std::size_t, std::size_t)>& progress) {
+  EvalResults r;
+  r.clips = std::move(clips);
+  const std::size_t C = config.conditions.size(), N = r.clips.size(), M = config.grids.size();
+
+  // The noisy clips, their noise estimates and the unfiltered scores.
+  const auto start = std::chrono::steady_clock::now();
+  r.noisy.assign(C, std::vector<NoisyClip>(N));
+  r.noisy_scores.assign(C, std::vector<Score>(N));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, C * N, 1), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i < range.end(); ++i) {
+      const std::size_t c = i / N, k = i % N;
+      const EvalClip& clip = r.clips[k];
+      NoisyClip& noisy = r.noisy[c][k];
+      const std::string label = config.conditions[c].label();
+      noisy.rotations =
+          make_noisy(clip.clean, config.conditions[c], noise_seed(config.seed, clip.name, label));
+      for (const Segment& s : clip.segments)
+        noisy.sigma_hats.push_back(
+            estimate_noise(segment_view(noisy.rotations, clip.clean.joints(), s)).sigma);
+      r.noisy_scores[c][k] =
+          score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
+                     {noisy.rotations.data(), clip.clean.frames, clip.clean.joints()});
+    }
+  });
+  r.prepare_seconds = seconds_since(start);
+
+  // Every (method, point, condition, clip) task; point == points.size() is the automatic one.
+  struct Task {
+    std::size_t m, p, c, k;
+  };
+  std::vector<Task> tasks;
+  r.results.resize(M);
+  for (std::size_t m = 0; m < M; ++m) {
+    const std::size_t P = config.grids[m].points.size() + 1;
+    r.results[m].assign(P, std::vector<std::vector<TaskResult>>(C, std::vector<TaskResult>(N)));
+    for (std::size_t p = 0; p < P; ++p)
+      for (std::size_t c = 0; c < C; ++c)
+        for (std::size_t k = 0; k < N; ++k) tasks.push_back({m, p, c, k});
+  }
+  r.tasks = tasks.size();
+  std::mutex progress_mutex;
+  std::size_t done = 0;
+  const auto filter_start = std::chrono::steady_clock::now();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tasks.size(), 1), [&](const auto& range) {
+    std::vector<float> out;
+    for (std::size_t i = range.begin(); i < range.end(); ++i) {
+      const Task& t = tasks[i];
+      const MethodGrid& grid = config.grids[t.m];
+      const ParamPoint* point = t.p < grid.points.size() ? &grid.points[t.p] : nullptr;
+      const EvalClip& clip = r.clips[t.k];
+      TaskResult& result = r.results[t.m][t.p][t.c][t.k];
+      const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, point, out,
+                                   point ? nullptr : &result.resolved);
+      if (!s) {
+        result.error = s.message();
+      } else {
+        result.score = score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
+                                  {out.data(), clip.clean.frames, clip.clean.joints()});
+      }
+      if (progress) {
+        std::lock_guard lock(progress_mutex);
+        progress(++done, tasks.size());
+      }
+    }
+  });
+  r.filter_seconds = seconds_since(filter_start);
+  return r;
+}
+
+Score pooled(const EvalResults& results, std::size_t m, std::size_t p, std::size_t c) {
+  Score s;
+  for (const TaskResult& t : results.results[m][p][c]) {
+    if (!t.error.empty()) return Score{};  // a point that failed on any clip is not comparable
+    s.add(t.score);
+  }
+  return s;
+}
+
+Score pooled_noisy(const EvalResults& results, std::size_t c) {
+  Score s;
+  for (const Score& x : results.noisy_scores[c]) s.add(x);
+  return s;
+}
+
+int best_point(const EvalResults& results, const EvalConfig& config, std::size_t m, std::size_t c) {
+  int best = -1;
+  double best_psnr = -std::numeric_limits<double>::infinity();
+  for (std::size_t p = 0; p < config.grids[m].points.size(); ++p) {
+    const double v = pooled(results, m, p, c).psnr();
+    if (std::isfinite(v) && v > best_psnr) {
+      best_psnr = v;
+      best = int(p);
+    }
+  }
+  return best;
+}
+
+}  // namespace mocap::engine::eval

@@ -1,0 +1,89 @@
+#pragma once
+// The evaluation itself: clean clips in; for each clip x noise condition a seeded noisy copy; for
+// each method x grid point (and the automatic parameters) the filtered copy, scored against the
+// clean clip. All (clip x condition x method x point) tasks run in one tbb::parallel_for; each is
+// a pure function of its indices (noise seeded by --seed, clip path and condition), and results
+// are stored by index, so the report is identical for any thread count.
+#include <cstdint>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "engine/eval/eval_metrics.hpp"
+#include "engine/eval/eval_spec.hpp"
+#include "io/clip.hpp"
+#include "kernels/motion_split.hpp"
+
+namespace mocap::engine::eval {
+
+struct EvalConfig {
+  std::vector<NoiseCondition> conditions;
+  std::vector<MethodGrid> grids;
+  std::uint64_t seed = 1;
+  double unit_cm = 0;  // 0 = guess per clip
+  bool split_impossible = true;
+  MotionSplitParams split;
+};
+
+// One clean clip and what eval derives from it once.
+struct EvalClip {
+  std::string name;  // clip path ("cmu_mb_01_01", "cmu/01/01_01")
+  io::Clip clean;
+  std::vector<ImpossibleStep> steps;  // found in the clean clip (see eval_run.cpp)
+  std::vector<Segment> segments;
+  ClipGeometry geometry;
+  ClipReference reference;
+};
+
+// The noise of one clip x condition and the noise level estimated on each of its segments.
+struct NoisyClip {
+  std::vector<float> rotations;    // [F][J][4]
+  std::vector<double> sigma_hats;  // per segment
+};
+
+struct TaskResult {
+  Score score;
+  nlohmann::json resolved;  // automatic runs: the parameters used per segment
+  std::string error;
+};
+
+struct EvalResults {
+  std::vector<EvalClip> clips;
+  std::vector<std::vector<NoisyClip>> noisy;     // [condition][clip]
+  std::vector<std::vector<Score>> noisy_scores;  // [condition][clip]
+  // [method][point][condition][clip]; point == grid.points.size() is the automatic parameters.
+  std::vector<std::vector<std::vector<std::vector<TaskResult>>>> results;
+  double prepare_seconds = 0, filter_seconds = 0;
+  std::size_t tasks = 0;
+};
+
+// The seed of one clip x condition: splitmix64 of --seed and an FNV-1a hash of both names, so a
+// clip's noise does not depend on which other clips or conditions run.
+std::uint64_t noise_seed(std::uint64_t seed, const std::string& clip, const std::string& condition);
+
+// Adds the condition's noise to a copy of `clean` (rotations only).
+std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condition,
+                              std::uint64_t seed);
+
+// Prepares a clip: the impossible steps and segments (when config.split_impossible), the
+// geometry and the reference.
+EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config);
+
+// Runs every task on all threads of the current TBB arena; `progress(done, total)` is called
+// under a lock after each task (may be empty).
+EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config,
+                           const std::function<void(std::size_t, std::size_t)>& progress);
+
+// The pooled score of method m, point p, condition c over all clips (p == points: automatic).
+Score pooled(const EvalResults& results, std::size_t m, std::size_t p, std::size_t c);
+Score pooled_noisy(const EvalResults& results, std::size_t c);
+// The grid point with the highest pooled PSNR (NaN scores lose), or -1 when none scored.
+int best_point(const EvalResults& results, const EvalConfig& config, std::size_t m, std::size_t c);
+
+// Filters every segment of noisy clip (clip, condition) with a method into `out` (sized like the
+// clip); the one place where the segments are applied. `resolved` may be null.
+Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method,
+                   const ParamPoint* point, std::vector<float>& out, nlohmann::json* resolved);
+
+}  // namespace mocap::engine::eval

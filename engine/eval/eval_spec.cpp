@@ -1,0 +1,236 @@
+#include "engine/eval/eval_spec.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+
+namespace mocap::engine::eval {
+namespace {
+
+// Comma-separated finite numbers; false on anything else.
+bool parse_numbers(std::string_view text, std::vector<double>& out) {
+  out.clear();
+  while (!text.empty()) {
+    const std::size_t comma = text.find(',');
+    const std::string item(text.substr(0, comma));
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (...) {
+      return false;
+    }
+    if (used != item.size() || !std::isfinite(v)) return false;
+    out.push_back(v);
+    if (comma == std::string_view::npos) break;
+    text.remove_prefix(comma + 1);
+  }
+  return !out.empty();
+}
+
+// Parameters that are two ways of setting the same thing: a grid names one or the other.
+std::string_view alternative(std::string_view parameter) {
+  if (parameter == "h") return "h_factor";
+  if (parameter == "h_factor") return "h";
+  if (parameter == "sigma_g") return "sigma_g_factor";
+  if (parameter == "sigma_g_factor") return "sigma_g";
+  if (parameter == "sigma_t") return "sigma_t_factor";
+  if (parameter == "sigma_t_factor") return "sigma_t";
+  if (parameter == "lambda") return "lambda_scale";
+  if (parameter == "lambda_scale") return "lambda";
+  return "";
+}
+
+}  // namespace
+
+std::optional<EvalMethod> parse_eval_method(std::string_view name) {
+  for (EvalMethod m : kAllEvalMethods)
+    if (to_string(m) == name) return m;
+  return std::nullopt;
+}
+
+std::string_view to_string(EvalMethod method) {
+  switch (method) {
+    case EvalMethod::bof:
+      return "bof";
+    case EvalMethod::nlpm:
+      return "nlpm";
+    case EvalMethod::gaussian:
+      return "gaussian";
+    case EvalMethod::butterworth:
+      return "butterworth";
+    case EvalMethod::moving_mean:
+      return "moving-mean";
+    case EvalMethod::kalman:
+      return "kalman";
+  }
+  return "?";
+}
+
+std::string NoiseCondition::label() const {
+  if (model == Model::gaussian) return fmt::format("gaussian {:g}", sigma);
+  return fmt::format("impulse {:g}", impulse.rate);
+}
+
+std::vector<NoiseCondition> parse_noise(std::string_view spec, std::string* error) {
+  const std::size_t colon = spec.find(':');
+  const std::string_view model = spec.substr(0, colon);
+  const std::string_view rest =
+      colon == std::string_view::npos ? std::string_view() : spec.substr(colon + 1);
+  std::vector<double> values;
+  std::vector<NoiseCondition> conditions;
+  if (model == "gaussian") {
+    if (!parse_numbers(rest, values)) {
+      *error = fmt::format("--noise {}: give the levels, e.g. gaussian:0.008,0.03,0.12", spec);
+      return {};
+    }
+    for (double sigma : values) {
+      NoiseCondition c;
+      c.sigma = sigma;
+      if (const Status s = GaussianNoise{sigma, 1}.validate(); !s) {
+        *error = fmt::format("--noise {}: {}", spec, s.message());
+        return {};
+      }
+      conditions.push_back(c);
+    }
+    return conditions;
+  }
+  if (model == "impulse") {
+    NoiseCondition c;
+    c.model = NoiseCondition::Model::impulse;
+    if (!rest.empty()) {
+      if (!parse_numbers(rest, values) || (values.size() != 1 && values.size() != 3)) {
+        *error = fmt::format("--noise {}: expected impulse or impulse:RATE[,MIN,MAX]", spec);
+        return {};
+      }
+      c.impulse.rate = values[0];
+      if (values.size() == 3) {
+        c.impulse.min_angle = values[1];
+        c.impulse.max_angle = values[2];
+      }
+    }
+    if (const Status s = c.impulse.validate(); !s) {
+      *error = fmt::format("--noise {}: {}", spec, s.message());
+      return {};
+    }
+    conditions.push_back(c);
+    return conditions;
+  }
+  *error = fmt::format("--noise {}: unknown noise model '{}' (gaussian or impulse)", spec, model);
+  return {};
+}
+
+std::vector<NoiseCondition> default_noise_conditions() {
+  std::string ignored;
+  std::vector<NoiseCondition> c = parse_noise("gaussian:0.008,0.03,0.12", &ignored);
+  c.push_back(parse_noise("impulse", &ignored)[0]);
+  return c;
+}
+
+std::string describe(const ParamPoint& point) {
+  std::string text;
+  for (const auto& [name, value] : point)
+    text += fmt::format("{}{}={:g}", text.empty() ? "" : " ", name, value);
+  return text;
+}
+
+std::vector<std::string> method_parameters(EvalMethod method) {
+  switch (method) {
+    case EvalMethod::bof:
+      return {"sigma_g", "sigma_g_factor", "sigma_g_floor",
+              "sigma_t", "sigma_t_factor", "iterations"};
+    case EvalMethod::nlpm:
+      return {"h", "h_factor", "K", "P"};
+    case EvalMethod::gaussian:
+      return {"sigma_t"};
+    case EvalMethod::butterworth:
+      return {"cutoff", "order"};
+    case EvalMethod::moving_mean:
+      return {"passes"};
+    case EvalMethod::kalman:
+      return {"lambda", "lambda_scale"};
+  }
+  return {};
+}
+
+// Modest grids around each method's default, wide enough to bracket the best value from 0.008 to
+// 0.12 rad of gaussian noise on CMU-like clips (4 to 8 points each; eval's time budget).
+std::vector<GridAxis> default_axes(EvalMethod method) {
+  switch (method) {
+    case EvalMethod::bof:
+      return {{"sigma_g", {0.05, 0.1, 0.2, 0.4}}, {"sigma_t", {1, 2}}};
+    case EvalMethod::nlpm:
+      return {{"h", {0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32}}};
+    case EvalMethod::gaussian:
+      return {{"sigma_t", {0.5, 1, 1.5, 2, 3, 4}}};
+    case EvalMethod::butterworth:
+      return {{"cutoff", {2, 4, 6, 10, 15, 25}}};
+    case EvalMethod::moving_mean:
+      return {{"passes", {1, 2, 5, 10, 20}}};
+    case EvalMethod::kalman:
+      return {{"lambda", {1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1}}};
+  }
+  return {};
+}
+
+std::optional<GridOverride> parse_grid_override(std::string_view spec, std::string* error) {
+  const std::size_t dot = spec.find('.'), eq = spec.find('=');
+  if (dot == std::string_view::npos || eq == std::string_view::npos || eq < dot) {
+    *error = fmt::format("--grid {}: expected METHOD.PARAM=v1,v2,...", spec);
+    return std::nullopt;
+  }
+  GridOverride g;
+  const auto method = parse_eval_method(spec.substr(0, dot));
+  if (!method) {
+    *error = fmt::format("--grid {}: unknown method '{}'", spec, spec.substr(0, dot));
+    return std::nullopt;
+  }
+  g.method = *method;
+  g.axis.parameter = std::string(spec.substr(dot + 1, eq - dot - 1));
+  const auto names = method_parameters(g.method);
+  if (std::find(names.begin(), names.end(), g.axis.parameter) == names.end()) {
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+    *error = fmt::format("--grid {}: {} has no parameter '{}' (it has {})", spec,
+                         to_string(g.method), g.axis.parameter, list);
+    return std::nullopt;
+  }
+  if (!parse_numbers(spec.substr(eq + 1), g.axis.values)) {
+    *error = fmt::format("--grid {}: the values must be numbers separated by commas", spec);
+    return std::nullopt;
+  }
+  return g;
+}
+
+std::vector<MethodGrid> build_grids(const std::vector<EvalMethod>& methods,
+                                    const std::vector<GridOverride>& overrides) {
+  std::vector<MethodGrid> grids;
+  for (EvalMethod method : methods) {
+    std::vector<GridAxis> axes = default_axes(method);
+    for (const GridOverride& o : overrides) {
+      if (o.method != method) continue;
+      const std::string_view other = alternative(o.axis.parameter);
+      std::erase_if(axes, [&](const GridAxis& a) {
+        return a.parameter == o.axis.parameter || (!other.empty() && a.parameter == other);
+      });
+      axes.push_back(o.axis);
+    }
+    MethodGrid grid{method, {ParamPoint{}}};
+    for (const GridAxis& axis : axes) {
+      std::vector<ParamPoint> next;
+      for (const ParamPoint& p : grid.points)
+        for (double v : axis.values) {
+          ParamPoint q = p;
+          q.emplace_back(axis.parameter, v);
+          next.push_back(std::move(q));
+        }
+      grid.points = std::move(next);
+    }
+    grids.push_back(std::move(grid));
+  }
+  return grids;
+}
+
+}  // namespace mocap::engine::eval

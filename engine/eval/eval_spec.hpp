@@ -1,0 +1,72 @@
+#pragma once
+// What an evaluation runs: the noise conditions, the methods and the parameter grid of each
+// (parsed from eval's --noise, --methods and --grid), with a modest default grid per method.
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "kernels/noise_model.hpp"
+
+namespace mocap::engine::eval {
+
+enum class EvalMethod { bof, nlpm, gaussian, butterworth, moving_mean, kalman };
+
+// "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman".
+std::optional<EvalMethod> parse_eval_method(std::string_view name);
+std::string_view to_string(EvalMethod method);
+inline constexpr EvalMethod kAllEvalMethods[] = {EvalMethod::bof,         EvalMethod::nlpm,
+                                                 EvalMethod::gaussian,    EvalMethod::butterworth,
+                                                 EvalMethod::moving_mean, EvalMethod::kalman};
+
+struct NoiseCondition {
+  enum class Model { gaussian, impulse } model = Model::gaussian;
+  double sigma = 0.03;        // gaussian, rad
+  ImpulseNoise impulse;       // impulse: rate and pop angles (seed set per clip)
+  std::string label() const;  // "gaussian 0.03", "impulse 0.01"
+  bool is_gaussian() const { return model == Model::gaussian; }
+};
+
+// "gaussian:0.008,0.03,0.12" (one condition per sigma), "impulse" (the spec's defaults) or
+// "impulse:RATE[,MIN,MAX]". Empty result and *error set on a malformed spec.
+std::vector<NoiseCondition> parse_noise(std::string_view spec, std::string* error);
+std::vector<NoiseCondition> default_noise_conditions();
+
+// One grid point: named parameter values, in a fixed order.
+using ParamPoint = std::vector<std::pair<std::string, double>>;
+std::string describe(const ParamPoint& point);  // "sigma_g=0.2 sigma_t=1"
+
+// The parameters a method takes in a grid (README "eval"):
+//   bof: sigma_g | sigma_g_factor [+ sigma_g_floor], sigma_t | sigma_t_factor, iterations
+//   nlpm: h | h_factor, K, P          gaussian: sigma_t
+//   butterworth: cutoff, order        moving-mean: passes
+//   kalman: lambda | lambda_scale
+// The relative ones follow each segment's estimated noise sigma_hat, as the automatic rules do
+// (their calibration): sigma_g = max(floor, factor sigma_hat), sigma_t = max(1, factor
+// sqrt(sigma_hat)) frames, h = factor sigma_hat, lambda = kalman_auto_lambda with that scale.
+std::vector<std::string> method_parameters(EvalMethod method);
+
+struct GridAxis {
+  std::string parameter;
+  std::vector<double> values;
+};
+std::vector<GridAxis> default_axes(EvalMethod method);
+
+// "--grid METHOD.PARAM=v1,v2,..." replaces that axis of the method's grid (and the axis of its
+// alternative: h and h_factor, sigma_g and sigma_g_factor, sigma_t and sigma_t_factor, lambda
+// and lambda_scale).
+struct GridOverride {
+  EvalMethod method = EvalMethod::bof;
+  GridAxis axis;
+};
+std::optional<GridOverride> parse_grid_override(std::string_view spec, std::string* error);
+
+struct MethodGrid {
+  EvalMethod method = EvalMethod::bof;
+  std::vector<ParamPoint> points;  // the cartesian product of the axes
+};
+std::vector<MethodGrid> build_grids(const std::vector<EvalMethod>& methods,
+                                    const std::vector<GridOverride>& overrides);
+
+}  // namespace mocap::engine::eval

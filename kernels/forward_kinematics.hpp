@@ -1,0 +1,44 @@
+#pragma once
+// Forward kinematics of a joint hierarchy (BVH semantics): the global position of every joint and
+// of extra points fixed to a joint (End Sites) from the local rotations and translations.
+//
+//     R[j] = R[parent] q[t][j],           p[j] = p[parent] + R[parent] (local translation of j)
+//     root: R = q[t][root],               p = its local translation
+//     site s of joint j:                  p = p[j] + R[j] offset_s
+//
+// A joint's local translation is its offset, or, for the joints marked in translated_joints, the
+// per-frame translation (BVH position channels: the root of CMU files). Plain arrays in; no
+// skeleton type, so that kernels/ stays free of io/.
+#include <cstdint>
+#include <span>
+
+#include "kernels/quaternion.hpp"
+#include "kernels/status.hpp"
+#include "kernels/tensor.hpp"
+
+namespace mocap {
+
+// A point rigidly attached to a joint (an End Site, or any marker).
+struct JointSite {
+  int joint = 0;
+  Vec3 offset;  // in the joint's frame
+};
+
+struct ForwardKinematicsJob {
+  std::span<const int> parents;   // [J]; -1 = a root; every parent precedes its children
+  std::span<const Vec3> offsets;  // [J]: a joint's position in its parent's frame
+  RotationView rotations;         // [F][J][4] local rotations, wxyz
+  // Optional [F][J][3], used for the joints with translated_joints[j] != 0 (then one entry per
+  // joint), whose per-frame translation replaces the offset.
+  TranslationView translations;
+  std::span<const std::uint8_t> translated_joints;
+  std::span<const JointSite> sites;
+  TranslationSpan positions;       // [F][J][3], written: global joint positions
+  TranslationSpan site_positions;  // [F][S][3], written (may be empty when there are no sites)
+
+  // Sizes agree, parents precede their children, sites name existing joints.
+  Status validate() const;
+  Status run() const;
+};
+
+}  // namespace mocap

@@ -1,0 +1,54 @@
+#include "kernels/motion_split.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "kernels/quaternion.hpp"
+
+namespace mocap {
+
+Status MotionSplitParams::validate() const {
+  char buffer[160];
+  if (!(max_speed > 0) || !std::isfinite(max_speed)) {
+    std::snprintf(buffer, sizeof buffer, "max speed must be > 0 rad/s, got %g", max_speed);
+    return Status::error(buffer);
+  }
+  if (!(max_step > 0) || !std::isfinite(max_step)) {
+    std::snprintf(buffer, sizeof buffer, "max step must be > 0 rad, got %g", max_step);
+    return Status::error(buffer);
+  }
+  return {};
+}
+
+double MotionSplitParams::step_threshold(double frame_time) const {
+  return std::min(max_speed * frame_time, max_step);
+}
+
+std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
+                                                  const MotionSplitParams& params) {
+  std::vector<ImpossibleStep> steps;
+  const double threshold = params.step_threshold(frame_time);
+  for (int t = 0; t + 1 < rotations.frames; ++t) {
+    ImpossibleStep worst{t, -1, 0.0};
+    for (int j = 0; j < rotations.joints; ++j) {
+      const double d = geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
+      if (d > threshold && d > worst.angle) worst = {t, j, d};
+    }
+    if (worst.joint >= 0) steps.push_back(worst);
+  }
+  return steps;
+}
+
+std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps) {
+  std::vector<Segment> segments;
+  int begin = 0;
+  for (const ImpossibleStep& s : steps) {
+    segments.push_back({begin, s.frame + 1});
+    begin = s.frame + 1;
+  }
+  if (begin < frames) segments.push_back({begin, frames});
+  return segments;
+}
+
+}  // namespace mocap

@@ -1,0 +1,53 @@
+#pragma once
+// Physically impossible frame-to-frame jumps, and the segments of a clip between them, so that
+// no filter smears a jump that is not motion across its neighbours (eval's --split-impossible).
+//
+// A step t -> t+1 is impossible when any joint turns by more than
+//     min(max_speed * frame_time, max_step)     (geodesic angle, rad)
+// Measured on the CMU "Motionbuilder-friendly" clips of ../shared/data/bvh (120 fps, 9 clips):
+// the synthetic T-pose frame 0 lies 1.50 to 3.09 rad (86 to 177 degrees) from frame 1 at its
+// worst joint; after it, the largest step of any joint in any clip is 0.71 rad (85 rad/s, a toe
+// in 05_02), fast hands about 0.63 rad, except the LThumb of 06_14, which flips by pi (Euler
+// channels passing gimbal lock in the conversion) 16 times. max_speed = 150 rad/s (1.25 rad per
+// step at 120 fps) sits between the two with room on both sides, above the fastest human joint
+// speeds reported (a pitcher's shoulder, about 120-160 rad/s, is the extreme) and above the
+// eval's impulse pops (at most 1 rad). max_step caps the threshold at low frame rates, where
+// max_speed * frame_time would exceed pi and nothing could ever be flagged.
+// Sign flips of the quaternion (q vs -q) are not steps: the geodesic angle ignores them.
+#include <vector>
+
+#include "kernels/status.hpp"
+#include "kernels/tensor.hpp"
+
+namespace mocap {
+
+struct MotionSplitParams {
+  double max_speed = 150.0;  // rad/s
+  double max_step = 2.0;     // rad
+
+  Status validate() const;                         // both > 0 and finite
+  double step_threshold(double frame_time) const;  // min(max_speed frame_time, max_step)
+};
+
+// One impossible step: frame t -> t + 1, at its fastest joint.
+struct ImpossibleStep {
+  int frame = 0;
+  int joint = 0;
+  double angle = 0;  // rad
+};
+
+// Frames [begin, end) of a clip between impossible steps.
+struct Segment {
+  int begin = 0, end = 0;
+  int frames() const { return end - begin; }
+};
+
+// The impossible steps of `rotations`, in frame order. Requires valid params and frame_time > 0.
+std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
+                                                  const MotionSplitParams& params);
+
+// The segments of [0, frames) cut after each step's frame (one segment when there is none;
+// none for an empty clip).
+std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps);
+
+}  // namespace mocap

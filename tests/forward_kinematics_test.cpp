@@ -1,0 +1,134 @@
+// Forward kinematics (kernels/forward_kinematics.hpp) of chains whose positions are known.
+#include "kernels/forward_kinematics.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "tests/test_support.hpp"
+
+namespace mocap {
+namespace {
+
+Quat about_z(double angle) {
+  return exp(Vec3{0, 0, angle});
+}
+
+void expect_near(const float* p, Vec3 expected, double tolerance, const std::string& what) {
+  EXPECT_NEAR(p[0], expected.x, tolerance) << what;
+  EXPECT_NEAR(p[1], expected.y, tolerance) << what;
+  EXPECT_NEAR(p[2], expected.z, tolerance) << what;
+}
+
+// A planar three-link arm: root at a moving translation, links of length 1 along x, each joint
+// turning about z; the positions are the familiar sums of cosines and sines.
+TEST(ForwardKinematics, PlanarArmMatchesTheClosedForm) {
+  const std::vector<int> parents{-1, 0, 1};
+  const std::vector<Vec3> offsets{{0, 0, 0}, {1, 0, 0}, {1, 0, 0}};
+  const std::vector<JointSite> sites{{2, {1, 0, 0}}};  // the End Site of the last link
+  const int frames = 5, joints = 3;
+  std::vector<float> rotations(std::size_t(frames) * joints * 4);
+  std::vector<float> translations(std::size_t(frames) * joints * 3, 0.0f);
+  std::vector<float> positions(std::size_t(frames) * joints * 3), site_positions(frames * 3);
+  std::vector<double> a0(frames), a1(frames), a2(frames);
+  for (int t = 0; t < frames; ++t) {
+    a0[t] = 0.3 * t;
+    a1[t] = -0.5 + 0.2 * t;
+    a2[t] = 1.1 - 0.4 * t;
+    store_quat(about_z(a0[t]), &rotations[(t * joints + 0) * 4]);
+    store_quat(about_z(a1[t]), &rotations[(t * joints + 1) * 4]);
+    store_quat(about_z(a2[t]), &rotations[(t * joints + 2) * 4]);
+    store_vec3({2.0 * t, 5.0, -1.0}, &translations[(t * joints + 0) * 3]);
+  }
+  const std::vector<std::uint8_t> translated{1, 0, 0};
+  ForwardKinematicsJob fk;
+  fk.parents = parents;
+  fk.offsets = offsets;
+  fk.rotations = {rotations.data(), frames, joints};
+  fk.translations = {translations.data(), frames, joints};
+  fk.translated_joints = translated;
+  fk.sites = sites;
+  fk.positions = {positions.data(), frames, joints};
+  fk.site_positions = {site_positions.data(), frames, 1};
+  ASSERT_TRUE(fk.run().ok());
+  for (int t = 0; t < frames; ++t) {
+    const Vec3 root{2.0 * t, 5.0, -1.0};
+    const double s1 = a0[t], s2 = a0[t] + a1[t], s3 = s2 + a2[t];
+    const Vec3 p1 = root + Vec3{std::cos(s1), std::sin(s1), 0};
+    const Vec3 p2 = p1 + Vec3{std::cos(s2), std::sin(s2), 0};
+    const Vec3 tip = p2 + Vec3{std::cos(s3), std::sin(s3), 0};
+    const std::string frame = "frame " + std::to_string(t);
+    expect_near(&positions[(t * joints + 0) * 3], root, 1e-5, frame + " root");
+    expect_near(&positions[(t * joints + 1) * 3], p1, 1e-5, frame + " joint 1");
+    expect_near(&positions[(t * joints + 2) * 3], p2, 1e-5, frame + " joint 2");
+    expect_near(&site_positions[t * 3], tip, 1e-5, frame + " end site");
+  }
+}
+
+// Moving the whole skeleton: a constant rotation a of the root rotates every position about the
+// root, a constant translation shifts them all (property, random skeleton and poses).
+TEST(ForwardKinematics, IsEquivariantUnderARigidMotionOfTheRoot) {
+  std::mt19937_64 rng(11);
+  const int frames = 4, joints = 9;
+  std::vector<int> parents{-1};
+  std::vector<Vec3> offsets{{0, 0, 0}};
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int j = 1; j < joints; ++j) {
+    parents.push_back(int(rng() % std::uint64_t(j)));
+    offsets.push_back({u(rng), u(rng), u(rng)});
+  }
+  std::vector<float> rotations(std::size_t(frames) * joints * 4), moved(rotations.size());
+  for (int i = 0; i < frames * joints; ++i)
+    store_quat(test::random_rotation(rng), &rotations[i * 4]);
+  const Quat a = test::random_rotation(rng);
+  const Vec3 shift{3, -2, 7};
+  moved = rotations;
+  std::vector<float> translations(std::size_t(frames) * joints * 3, 0.0f);
+  for (int t = 0; t < frames; ++t) {
+    store_quat(a * load_quat(&rotations[(t * joints) * 4]), &moved[(t * joints) * 4]);
+    store_vec3(shift, &translations[(t * joints) * 3]);
+  }
+  std::vector<std::uint8_t> root_only(joints, 0);
+  root_only[0] = 1;
+  std::vector<float> before(std::size_t(frames) * joints * 3), after(before.size());
+  ForwardKinematicsJob fk;
+  fk.parents = parents;
+  fk.offsets = offsets;
+  fk.rotations = {rotations.data(), frames, joints};
+  fk.positions = {before.data(), frames, joints};
+  ASSERT_TRUE(fk.run().ok());
+  fk.rotations = {moved.data(), frames, joints};
+  fk.translations = {translations.data(), frames, joints};
+  fk.translated_joints = root_only;
+  fk.positions = {after.data(), frames, joints};
+  ASSERT_TRUE(fk.run().ok());
+  for (int i = 0; i < frames * joints; ++i)
+    expect_near(&after[i * 3], shift + rotate(a, load_vec3(&before[i * 3])), 1e-5,
+                "sample " + std::to_string(i));
+}
+
+TEST(ForwardKinematics, ValidateNamesWhatIsWrong) {
+  const std::vector<int> parents{-1, 2, 0};  // joint 1's parent comes after it
+  const std::vector<Vec3> offsets(3);
+  std::vector<float> rotations(3 * 4, 0.0f), positions(3 * 3);
+  ForwardKinematicsJob fk;
+  fk.parents = parents;
+  fk.offsets = offsets;
+  fk.rotations = {rotations.data(), 1, 3};
+  fk.positions = {positions.data(), 1, 3};
+  const Status s = fk.validate();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("joint 1"), std::string::npos) << s.message();
+
+  const std::vector<int> good{-1, 0, 1};
+  fk.parents = good;
+  EXPECT_TRUE(fk.validate().ok());
+  const std::vector<JointSite> sites{{5, {}}};
+  fk.sites = sites;
+  EXPECT_FALSE(fk.validate().ok());
+}
+
+}  // namespace
+}  // namespace mocap
