@@ -105,6 +105,11 @@ TEST_F(ClusterTest, AKilledShardResumesWithAnotherShardCount) {
 
 TEST_F(ClusterTest, MpiTwoRanksGiveTheSingleProcessLibrary) {
   if (!engine::built_with_mpi()) GTEST_SKIP() << "built without MPI (libopenmpi-dev not found)";
+#ifdef MOCAP_SANITIZED
+  // OpenMPI patches malloc with its own memory hooks, which clash with the sanitizers' runtime;
+  // the plain build of CI runs this test.
+  GTEST_SKIP() << "MPI is not run under sanitizers (" MOCAP_SANITIZED "): OpenMPI's memory hooks";
+#endif
   if (std::system("command -v mpirun >/dev/null 2>&1") != 0) GTEST_SKIP() << "mpirun not installed";
   const std::string out = (dir_ / "mpi.h5").string();
   const std::string cmd = "mpirun -np 2 --oversubscribe --allow-run-as-root '" +
