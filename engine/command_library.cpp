@@ -120,10 +120,9 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, cons
   } else if (shard.active()) {
     if (!sink.output().mark_finished(&error)) {
       summary.failed.push_back({out.path, error});
-    } else if (sink.output().all_finished(shard.count) && sink.output().claim_join()) {
-      if (!sink.output().join(provenance, &error)) summary.failed.push_back({out.path, error});
-      joined = error.empty();
-    } else if (!job.run.json) {
+    } else if (!sink.output().join_if_all_finished(shard.count, provenance, &joined, &error)) {
+      summary.failed.push_back({out.path, error});
+    } else if (!joined && !job.run.json) {
       fmt::print(stderr, "{}: shard {}/{} done; the last shard to finish joins {}\n", command,
                  shard.index, shard.count, out.path);
     }

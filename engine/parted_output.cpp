@@ -3,8 +3,10 @@
 #include <fmt/core.h>
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cstdio>
 
@@ -156,9 +158,13 @@ bool PartedOutput::finish(const io::Provenance& provenance, std::string* error) 
 
 bool PartedOutput::mark_finished(std::string* error) {
   if (!commit(error)) return false;
-  const fs::path marker = parts_dir() / ("finished-" + options_.tag);
-  std::FILE* f = std::fopen(marker.c_str(), "w");
-  if (!f || std::fclose(f) != 0) return fail(error, "cannot write " + marker.string());
+  // The join lock exists before any marker does, so a joiner never has to create it (and never
+  // recreates it in a folder that another joiner is removing).
+  for (const fs::path& file :
+       {parts_dir() / "join.lock", parts_dir() / ("finished-" + options_.tag)}) {
+    std::FILE* f = std::fopen(file.c_str(), "a");
+    if (!f || std::fclose(f) != 0) return fail(error, "cannot write " + file.string());
+  }
   return true;
 }
 
@@ -169,12 +175,32 @@ bool PartedOutput::all_finished(int count) const {
   return true;
 }
 
-bool PartedOutput::claim_join() const {
+bool PartedOutput::join_if_all_finished(int count, const io::Provenance& provenance, bool* joined,
+                                        std::string* error) {
+  *joined = false;
+  if (!all_finished(count)) return true;
+  // Opening fails once a joiner has removed OUT.parts: the join is done.
   const fs::path lock = parts_dir() / "join.lock";
-  const int fd = ::open(lock.c_str(), O_CREAT | O_EXCL | O_WRONLY, 0644);
-  if (fd < 0) return false;
+  const int fd = ::open(lock.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return true;
+  bool ok = true;
+  // Whoever holds the lock joins; the others leave it to them. Under the lock the markers are
+  // checked again: a joiner that finished before us removed them first. File systems without
+  // flock (some Lustre mounts) fall back to an exclusive claim file, which a killed joiner leaves
+  // behind: then `mocap-clean join` completes the output.
+  bool locked = ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  if (!locked && errno != EWOULDBLOCK) {
+    const fs::path claim = parts_dir() / "join.claimed";
+    const int claim_fd = ::open(claim.c_str(), O_CREAT | O_EXCL | O_WRONLY | O_CLOEXEC, 0644);
+    locked = claim_fd >= 0;
+    if (locked) ::close(claim_fd);
+  }
+  if (locked && all_finished(count)) {
+    ok = join(provenance, error);
+    *joined = ok;
+  }
   ::close(fd);
-  return true;
+  return ok;
 }
 
 bool PartedOutput::join(const io::Provenance& provenance, std::string* error) {
@@ -183,6 +209,9 @@ bool PartedOutput::join(const io::Provenance& provenance, std::string* error) {
   std::error_code ec;
   fs::rename(tmp, options_.output, ec);
   if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  // The finished markers go first, so that no shard that comes late joins again.
+  for (const auto& entry : fs::directory_iterator(parts_dir(), ec))
+    if (entry.path().filename().string().starts_with("finished-")) fs::remove(entry.path(), ec);
   fs::remove_all(parts_dir(), ec);
   return true;
 }

@@ -50,18 +50,20 @@ class PartedOutput {
   // The committed part files, sorted.
   std::vector<std::filesystem::path> committed_parts() const;
 
-  // For shared parts: marks this writer (tag) as finished, and tells whether all `count`
-  // writers of the same split have finished; then exactly one caller gets true from
-  // claim_join() (an exclusive lock file), and that one joins.
+  // For shared parts: marks this writer (tag) as finished.
   bool mark_finished(std::string* error);
-  bool all_finished(int count) const;
-  bool claim_join() const;
+  // For shared parts: once all `count` writers of this split have finished, exactly one caller
+  // joins (under an flock on OUT.parts/join.lock, which the kernel releases if the joiner dies,
+  // so a killed join never blocks the next). Sets *joined when this caller did the join.
+  bool join_if_all_finished(int count, const io::Provenance& provenance, bool* joined,
+                            std::string* error);
   // Joins every committed part into OUT (through OUT.tmp and a rename) and removes OUT.parts.
   bool join(const io::Provenance& provenance, std::string* error);
 
  private:
   explicit PartedOutput(PartedOutputOptions options) : options_(std::move(options)) {}
   bool refresh_master(std::string* error);
+  bool all_finished(int count) const;
 
   PartedOutputOptions options_;
   std::set<std::string> done_;

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -93,7 +94,7 @@ TEST_F(ClusterTest, AKilledShardResumesWithAnotherShardCount) {
   // Shard 1/2 dies before it finishes: simulate with a run interrupted right after start.
   const std::string cmd = "'" + test::cli_path().string() + "' " + filter_to("resumed.h5") +
                           " --shard 1/2 --clips-per-part 1 --threads 1 >/dev/null 2>&1 & pid=$!; "
-                          "sleep 0.05; kill -9 $pid; wait $pid";
+                          "sleep 0.05; kill -9 $pid; wait $pid 2>/dev/null";
   std::system(cmd.c_str());
   // Resume the rest with three shards.
   for (int i = 0; i < 3; ++i) {
@@ -101,6 +102,38 @@ TEST_F(ClusterTest, AKilledShardResumesWithAnotherShardCount) {
     ASSERT_EQ(r.exit_code, 0) << r.err;
   }
   EXPECT_EQ(tensors(dir_ / "resumed.h5"), single_);
+}
+
+TEST_F(ClusterTest, AJoinerKilledMidJoinDoesNotBlockTheNextJoin) {
+  // A joiner killed while joining leaves its lock file and a half-written OUT.tmp behind; the
+  // lock is an flock, gone with its process, so the next shard to finish joins.
+  auto r = test::run_cli(filter_to("killed_join.h5") + " --shard 0/2");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const fs::path parts = dir_ / "killed_join.h5.parts";
+  for (const fs::path& left : {parts / "join.lock", dir_ / "killed_join.h5.tmp"}) {
+    std::FILE* f = std::fopen(left.c_str(), "a");
+    ASSERT_NE(f, nullptr) << left;
+    std::fputs("left by a killed joiner", f);
+    std::fclose(f);
+  }
+  r = test::run_cli(filter_to("killed_join.h5") + " --shard 1/2 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(nlohmann::json::parse(r.out)["joined"].get<bool>()) << r.out;
+  EXPECT_FALSE(fs::exists(parts));
+  EXPECT_EQ(tensors(dir_ / "killed_join.h5"), single_);
+}
+
+TEST_F(ClusterTest, AShardThatComesLateDoesNotJoinAgain) {
+  for (int i = 0; i < 2; ++i) {
+    const auto r = test::run_cli(filter_to("late.h5") + " --shard " + std::to_string(i) + "/2");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+  }
+  const auto joined_at = fs::last_write_time(dir_ / "late.h5");
+  // Shard 1/2 again (a scheduler retry): nothing left to do, OUT stays as it is.
+  const auto r = test::run_cli(filter_to("late.h5") + " --shard 1/2 --resume --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(fs::last_write_time(dir_ / "late.h5"), joined_at);
+  EXPECT_EQ(tensors(dir_ / "late.h5"), single_);
 }
 
 TEST_F(ClusterTest, MpiTwoRanksGiveTheSingleProcessLibrary) {

@@ -53,9 +53,9 @@ Motion noisy_random_motion(std::uint64_t seed, int frames, int joints, double no
 const std::vector<Motion>& real_clips() {
   static const std::vector<Motion> clips = [] {
     std::vector<Motion> out;
-    const std::tuple<const char*, int, int> wanted[] = {{"cmu_mb_02_03.bvh", 0, 174},
-                                                        {"cmu_mb_01_01.bvh", 1200, 300},
-                                                        {"cmu_mb_02_05.bvh", 600, 200}};
+    const std::tuple<const char*, int, int> wanted[] = {{"cmu_mb_02_03.bvh", 0, 120},
+                                                        {"cmu_mb_01_01.bvh", 1300, 160},
+                                                        {"cmu_mb_02_05.bvh", 600, 120}};
     for (const auto& path : test::shared_bvh_files())
       for (const auto& [name, first, count] : wanted) {
         if (path.filename() != name) continue;
@@ -90,19 +90,6 @@ struct Agreement {
   int excluded_joints = 0;
 };
 
-// The worst agreement seen by a test, printed at its end for the record (README "Performance").
-struct Worst {
-  const char* what;
-  double rms = 0, max = 0;
-  void add(double r, double m) {
-    rms = std::max(rms, r);
-    max = std::max(max, m);
-  }
-  ~Worst() {
-    std::printf("[ accuracy ] %s: worst rms %.3g rad, worst max %.3g rad\n", what, rms, max);
-  }
-};
-
 Agreement agreement(const Motion& m, const std::vector<float>& a, const std::vector<float>& b) {
   const std::vector<bool> skip = ambiguous_joints(m);
   Agreement out;
@@ -124,6 +111,22 @@ Agreement agreement(const Motion& m, const std::vector<float>& a, const std::vec
   out.rms = count > 0 ? std::sqrt(sum / double(count)) : 0.0;
   return out;
 }
+
+// The worst agreement seen by a test, printed at its end for the record (README "Performance").
+struct Worst {
+  const char* what;
+  double rms = 0, max = 0;
+  int excluded = 0;  // joints left out of comparisons (a step within 1e-6 rad of pi)
+  void add(const Agreement& a) {
+    rms = std::max(rms, a.rms);
+    max = std::max(max, a.max);
+    excluded = std::max(excluded, a.excluded_joints);
+  }
+  ~Worst() {
+    std::printf("[ accuracy ] %s: worst rms %.3g rad, worst max %.3g rad (%d joints excluded)\n",
+                what, rms, max, excluded);
+  }
+};
 
 MotionIO io_of(const Motion& m, std::vector<float>& out) {
   out.assign(m.rotations.size(), 0.0f);
@@ -200,7 +203,7 @@ std::string describe(const NlpmParams& p) {
 }
 
 std::vector<Motion> test_motions() {
-  std::vector<Motion> out = {noisy_random_motion(101, 150, 7, 0.03),
+  std::vector<Motion> out = {noisy_random_motion(101, 120, 5, 0.03),
                              noisy_random_motion(102, 23, 3, 0.1)};
   for (const Motion& m : real_clips()) out.push_back(m);
   return out;
@@ -344,7 +347,7 @@ TEST_P(SimdKernels, ShortcutsDoNotDependOnTheOtherLanes) {
     for (std::size_t c = 0; c < 4; ++c)
       ASSERT_EQ(exp_alone[c * n + i], exp_mixed[c * 2 * n + 2 * i]) << "Exp, sample " << i;
   // Squared geodesics (nlpm's band) between the identity and each sample.
-  const std::size_t stride = 256;  // >= 2n + 1 + 16
+  const std::size_t stride = 4 * n + 32;  // >= the longest curve (4n) + 1 + a vector, whole vectors
   auto band_of = [&](const std::vector<float>& q, std::size_t count) {
     std::vector<float> planes(4 * stride, 0.0f), band(stride, 0.0f);
     std::fill_n(planes.begin(), stride, 1.0f);
@@ -390,7 +393,7 @@ std::vector<BilateralParams> bof_cases() {
       p.iterations = iterations;
       out.push_back(p);
     }
-  for (double sigma_g : {0.05, 0.5, 1e6}) {
+  for (double sigma_g : {0.05, 1e6}) {
     BilateralParams p;
     p.sigma_g = sigma_g;
     out.push_back(p);
@@ -415,7 +418,7 @@ TEST_P(SimdKernels, BofAgreesWithTheReference) {
       const std::vector<float>& expected =
           cached_reference(label, [&] { return run_bof(m, p, Implementation::reference); });
       const Agreement a = agreement(m, run_bof(m, p, Implementation::fast), expected);
-      worst.add(a.rms, a.max);
+      worst.add(a);
       EXPECT_LT(a.rms, kRmsTolerance) << label;
       EXPECT_LT(a.max, kMaxTolerance) << label;
       EXPECT_LT(a.excluded_joints, m.joints) << label;
@@ -447,7 +450,7 @@ TEST_P(SimdKernels, LinearFiltersAgreeWithTheReference) {
       const std::vector<float>& expected =
           cached_reference(label, [&] { return run_linear(m, p, Implementation::reference); });
       const Agreement a = agreement(m, run_linear(m, p, Implementation::fast), expected);
-      worst.add(a.rms, a.max);
+      worst.add(a);
       EXPECT_LT(a.rms, kRmsTolerance) << label;
       EXPECT_LT(a.max, kMaxTolerance) << label;
     }
@@ -484,7 +487,7 @@ TEST_P(SimdKernels, NlpmAgreesWithTheReference) {
       const std::vector<float>& expected =
           cached_reference(label, [&] { return run_nlpm(m, p, Implementation::reference); });
       const Agreement a = agreement(m, run_nlpm(m, p, Implementation::fast), expected);
-      worst.add(a.rms, a.max);
+      worst.add(a);
       EXPECT_LT(a.rms, kRmsTolerance) << label;
       EXPECT_LT(a.max, kMaxTolerance) << label;
     }

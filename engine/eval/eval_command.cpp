@@ -93,11 +93,12 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
                   "comma-separated: bof, nlpm, gaussian, butterworth, moving-mean, kalman")
       ->capture_default_str()
       ->group("Evaluation");
-  cmd->add_option("--grid", command.grid,
-                  "replace one axis of a method's grid, repeatable: METHOD.PARAM=v1,v2,...\n"
-                  "bof: sigma_g|sigma_g_factor (+sigma_g_floor), sigma_t, iterations;\n"
-                  "nlpm: h|h_factor, K, P; gaussian: sigma_t; butterworth: cutoff, order;\n"
-                  "moving-mean: passes; kalman: lambda|lambda_scale (factors: x sigma_hat)")
+  cmd->add_option(
+         "--grid", command.grid,
+         "replace one axis of a method's grid, repeatable: METHOD.PARAM=v1,v2,...\n"
+         "bof: sigma_g|sigma_g_factor (+sigma_g_floor), sigma_t|sigma_t_factor, iterations;\n"
+         "nlpm: h|h_factor, K, P; gaussian: sigma_t; butterworth: cutoff, order;\n"
+         "moving-mean: passes; kalman: lambda|lambda_scale (factors: x sigma_hat)")
       ->group("Evaluation");
   cmd->add_option("--seed", command.seed, "noise seed (per clip and condition from it)")
       ->capture_default_str()
