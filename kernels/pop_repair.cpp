@@ -1,0 +1,271 @@
+#include "kernels/pop_repair.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "kernels/quaternion.hpp"
+
+namespace mocap {
+namespace {
+
+std::string format(const char* pattern, double value) {
+  char buffer[160];
+  std::snprintf(buffer, sizeof buffer, pattern, value);
+  return buffer;
+}
+
+// Neighbours farther than this from the sample (rad), and all beyond them, are left out of its
+// fit: Log wraps at pi, so a fast motion (0.45 rad per frame over 10 frames) would fold back.
+constexpr double kChartReach = 2.5;
+
+// Fits that extrapolate far (the block leaves only distant samples on one side of t) predict t
+// with (1 + leverage) times the noise variance; above this leverage they are a last resort. The
+// symmetric fit has 0.26, one side of 10 samples 1.4.
+constexpr double kMaxLeverage = 10.0;
+
+// The normal-equation sums of a quadratic least-squares fit in the offset o, per point
+// (1, o, o^2, o^3, o^4) and per component (v, o v, o^2 v), plus sum |v|^2.
+struct FitSums {
+  double s[5] = {};
+  Vec3 r[3];
+  double vv = 0;
+
+  void add(double o, Vec3 v, double sign) {
+    const double o2 = o * o;
+    s[0] += sign;
+    s[1] += sign * o;
+    s[2] += sign * o2;
+    s[3] += sign * o2 * o;
+    s[4] += sign * o2 * o2;
+    r[0] += sign * v;
+    r[1] += (sign * o) * v;
+    r[2] += (sign * o2) * v;
+    vv += sign * dot(v, v);
+  }
+};
+
+// Solves the 3x3 normal equations; returns false when the points do not determine a quadratic.
+// On success, `intercept` is the fit at o = 0 and `sse` the sum of squared residuals.
+// `leverage` is x0^T (X^T X)^-1 x0 at x0 = (1, 0, 0): the prediction at o = 0 has variance
+// (1 + leverage) sigma^2 for i.i.d. noise of variance sigma^2 per point.
+bool solve_quadratic(const FitSums& f, Vec3& intercept, double& sse, double& leverage) {
+  const double a = f.s[0], b = f.s[1], c = f.s[2], d = f.s[3], e = f.s[4];
+  // M = [[a b c] [b c d] [c d e]], symmetric; its inverse by cofactors.
+  const double c00 = c * e - d * d, c01 = c * d - b * e, c02 = b * d - c * c;
+  const double c11 = a * e - c * c, c12 = b * c - a * d, c22 = a * c - b * b;
+  const double det = a * c00 + b * c01 + c * c02;
+  if (!(std::abs(det) > 1e-9)) return false;
+  const double inv = 1.0 / det;
+  const Vec3 beta0 = (c00 * inv) * f.r[0] + (c01 * inv) * f.r[1] + (c02 * inv) * f.r[2];
+  const Vec3 beta1 = (c01 * inv) * f.r[0] + (c11 * inv) * f.r[1] + (c12 * inv) * f.r[2];
+  const Vec3 beta2 = (c02 * inv) * f.r[0] + (c12 * inv) * f.r[1] + (c22 * inv) * f.r[2];
+  intercept = beta0;
+  leverage = c00 * inv;
+  // Least squares: sse = sum |v|^2 - beta . X^T v.
+  sse = std::max(0.0, f.vv - dot(beta0, f.r[0]) - dot(beta1, f.r[1]) - dot(beta2, f.r[2]));
+  return true;
+}
+
+double median_of(std::vector<double> values) {
+  const std::size_t middle = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(middle), values.end());
+  double m = values[middle];
+  if (values.size() % 2 == 0)
+    m = (m + *std::max_element(values.begin(), values.begin() + std::ptrdiff_t(middle))) / 2;
+  return m;
+}
+
+}  // namespace
+
+Status PopRepairParams::validate() const {
+  if (max_run < 1 || max_run > kPopRepairMaxRun)
+    return Status::error("max_run must be in [1, " + std::to_string(kPopRepairMaxRun) + "], got " +
+                         std::to_string(max_run));
+  if (reach < 2)
+    return Status::error("reach must be >= 2 (a quadratic needs clean neighbours), got " +
+                         std::to_string(reach));
+  if (!(threshold > 0) || !std::isfinite(threshold))
+    return Status::error(format("threshold must be finite and > 0, got %g", threshold));
+  if (!(floor > 0) || !std::isfinite(floor))
+    return Status::error(format("floor must be finite and > 0 rad, got %g", floor));
+  if (!(local_threshold >= 0) || !std::isfinite(local_threshold))
+    return Status::error(
+        format("local_threshold must be finite and >= 0, got %g", local_threshold));
+  return {};
+}
+
+void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
+                   std::span<double> residuals, std::span<double> spreads,
+                   std::span<double> fit_errors) {
+  const int frames = int(curve.size());
+  const int window = params.window();
+  std::vector<Vec3> chart(curve.size());
+  std::vector<std::uint8_t> in_chart(curve.size());
+  for (int t = 0; t < frames; ++t) {
+    // 2 window neighbours, shifted inwards at the clip ends so that an end sample is predicted
+    // from as many samples as an inner one.
+    const int lo = std::max(0, std::min(t - window, frames - 1 - 2 * window));
+    const int hi = std::min(frames - 1, std::max(t + window, 2 * window));
+    const Quat to_chart = inverse(curve[std::size_t(t)]);
+    FitSums all;
+    // Outwards from t on each side, up to the first neighbour out of the chart's reach: beyond
+    // it, Log may have wrapped (a point 4.5 rad away maps to 2pi - 4.5 = 1.8 rad).
+    for (int side : {-1, 1}) {
+      bool reachable = true;
+      for (int u = t + side; u >= lo && u <= hi; u += side) {
+        chart[std::size_t(u)] = log(to_chart * curve[std::size_t(u)]);
+        reachable = reachable && norm(chart[std::size_t(u)]) <= kChartReach;
+        in_chart[std::size_t(u)] = reachable;
+        if (reachable) all.add(u - t, chart[std::size_t(u)], 1.0);
+      }
+    }
+    // The best fit among those that predict t well (leverage <= kMaxLeverage), else among all.
+    double best_score[2] = {std::numeric_limits<double>::infinity(),
+                            std::numeric_limits<double>::infinity()};
+    double residual[2] = {0, 0}, spread[2] = {1, 1};
+    // Left out: t and a block [x, y] of up to max_run other samples, next to t or anywhere in
+    // the window (x > y: none).
+    for (int x = lo; x <= hi; ++x)
+      for (int y = x - 1; y <= std::min(hi, x + params.max_run); ++y) {
+        const int excluded = y - x + 1 - (x <= t && t <= y ? 1 : 0);
+        if (excluded > params.max_run || (y < x && x != lo)) continue;
+        FitSums fit = all;
+        for (int u = x; u <= y; ++u)
+          if (u != t && in_chart[std::size_t(u)]) fit.add(u - t, chart[std::size_t(u)], -1.0);
+        const double points = std::round(fit.s[0]);
+        if (points < 4) continue;
+        Vec3 intercept;
+        double sse = 0, leverage = 0;
+        if (!solve_quadratic(fit, intercept, sse, leverage)) continue;
+        // The estimated variance of the prediction at t: noise variance times (1 + leverage).
+        const double score = sse / (points - 3) * (1 + leverage);
+        const int tier = leverage <= kMaxLeverage ? 0 : 1;
+        if (score < best_score[tier]) {
+          best_score[tier] = score;
+          residual[tier] = norm(intercept);
+          spread[tier] = std::sqrt(1 + leverage);
+        }
+      }
+    const int tier = std::isfinite(best_score[0]) ? 0 : 1;
+    residuals[std::size_t(t)] = residual[tier];
+    spreads[std::size_t(t)] = spread[tier];
+    fit_errors[std::size_t(t)] = std::isfinite(best_score[tier]) ? std::sqrt(best_score[tier]) : 0;
+  }
+}
+
+double pop_scale(std::span<const double> residuals, std::span<const double> spreads) {
+  if (residuals.empty()) return 0;
+  std::vector<double> standardized(residuals.size());
+  for (std::size_t t = 0; t < residuals.size(); ++t) standardized[t] = residuals[t] / spreads[t];
+  return median_of(std::move(standardized));
+}
+
+int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
+              std::span<std::uint8_t> flags) {
+  std::fill(flags.begin(), flags.end(), std::uint8_t{0});
+  if (curve.size() < std::size_t(kPopRepairMinFrames)) return 0;
+  std::vector<double> residuals(curve.size()), spreads(curve.size()), fit_errors(curve.size());
+  pop_residuals(curve, params, residuals, spreads, fit_errors);
+  const double scale = pop_scale(residuals, spreads);
+  int count = 0;
+  for (std::size_t t = 0; t < curve.size(); ++t)
+    if (residuals[t] > std::max(params.threshold * scale * spreads[t], params.floor) &&
+        residuals[t] > params.local_threshold * fit_errors[t]) {
+      flags[t] = 1;
+      ++count;
+    }
+  return count;
+}
+
+void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flags,
+                 std::span<Quat> out) {
+  const int frames = int(curve.size());
+  std::copy(curve.begin(), curve.end(), out.begin());
+  for (int s = 0; s < frames;) {
+    if (!flags[std::size_t(s)]) {
+      ++s;
+      continue;
+    }
+    int e = s;
+    while (e + 1 < frames && flags[std::size_t(e + 1)]) ++e;
+    const int before = s - 1, after = e + 1;
+    if (before >= 0 && after < frames) {
+      const Quat from = curve[std::size_t(before)];
+      const Vec3 path = log(inverse(from) * curve[std::size_t(after)]);
+      for (int t = s; t <= e; ++t)
+        out[std::size_t(t)] = from * exp((double(t - before) / double(after - before)) * path);
+    } else if (before >= 0 || after < frames) {
+      const Quat held = curve[std::size_t(before >= 0 ? before : after)];
+      for (int t = s; t <= e; ++t) out[std::size_t(t)] = held;
+    }
+    // Sign continuity with the sample before (or after, for a run at the start).
+    for (int t = s; t <= e; ++t) {
+      const int neighbour = t > 0 ? t - 1 : after;
+      if (neighbour < frames && dot(out[std::size_t(t)], out[std::size_t(neighbour)]) < 0)
+        out[std::size_t(t)] = negate(out[std::size_t(t)]);
+    }
+    s = e + 1;
+  }
+}
+
+Status PopRepairJob::validate() const {
+  if (Status s = io.validate(); !s) return s;
+  const std::size_t joints = std::size_t(io.rotations.joints);
+  if (!skip_joints.empty() && skip_joints.size() != joints)
+    return Status::error("skip_joints must have one entry per joint (" + std::to_string(joints) +
+                         "), got " + std::to_string(skip_joints.size()));
+  if (!flagged_per_joint.empty() && flagged_per_joint.size() != joints)
+    return Status::error("flagged_per_joint must have one entry per joint (" +
+                         std::to_string(joints) + "), got " +
+                         std::to_string(flagged_per_joint.size()));
+  const std::size_t samples = std::size_t(io.rotations.frames) * joints;
+  if (!flagged_samples.empty() && flagged_samples.size() != samples)
+    return Status::error("flagged_samples must have one entry per sample (" +
+                         std::to_string(samples) + "), got " +
+                         std::to_string(flagged_samples.size()));
+  return params.validate();
+}
+
+Status PopRepairJob::run() const {
+  if (Status s = validate(); !s) return s;
+  const int frames = io.rotations.frames, joints = io.rotations.joints;
+  const int begin = io.frame_begin, end = io.frame_stop();
+  std::vector<Quat> curve(static_cast<std::size_t>(frames)),
+      repaired(static_cast<std::size_t>(frames));
+  std::vector<std::uint8_t> flags(static_cast<std::size_t>(frames));
+  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+    const bool skip = !skip_joints.empty() && skip_joints[std::size_t(j)] != 0;
+    std::fill(flags.begin(), flags.end(), std::uint8_t{0});
+    if (!skip) {
+      for (int t = 0; t < frames; ++t) curve[std::size_t(t)] = load_quat(io.rotations.at(t, j));
+      find_pops(curve, params, flags);
+    }
+    const bool changes = repair && std::find(flags.begin() + begin, flags.begin() + end,
+                                             std::uint8_t{1}) != flags.begin() + end;
+    if (changes) repair_pops(curve, flags, repaired);
+    int count = 0;
+    for (int t = begin; t < end; ++t) {
+      const std::size_t i = std::size_t(t);
+      count += flags[i];
+      if (!flagged_samples.empty())
+        flagged_samples[i * std::size_t(joints) + std::size_t(j)] = flags[i];
+      if (changes && flags[i])
+        store_quat(repaired[i], io.filtered_rotations.at(t, j));
+      else
+        std::memcpy(io.filtered_rotations.at(t, j), io.rotations.at(t, j), 4 * sizeof(float));
+    }
+    if (!flagged_per_joint.empty()) flagged_per_joint[std::size_t(j)] = count;
+  }
+  if (io.has_translations())
+    for (int t = begin; t < end; ++t)
+      for (int j = io.joint_begin; j < io.joint_stop(); ++j)
+        std::memcpy(io.filtered_translations.at(t, j), io.translations.at(t, j), 3 * sizeof(float));
+  return {};
+}
+
+}  // namespace mocap

@@ -1,0 +1,103 @@
+#pragma once
+// Pop repair: finds isolated outlier samples ("pops": a sample that jumps away and comes back, the
+// spec's `impulse` noise model, ../shared/spec/filters.md "Noise models") and replaces them by
+// geodesic interpolation, before a smoothing filter runs. No filter of the spec removes pops: they
+// are sparse, large (0.3-1 rad) and the robust noise estimate ignores them by design.
+//
+// Detection, per joint, in the tangent space (spec "Conventions": Log, Exp, d):
+//   For each sample t, the 2 window() neighbours around it (shifted inwards at the clip ends) are
+//   mapped to the chart at q_t, v_o = Log(q_t^-1 q_{t+o}), up to the first one farther than
+//   2.5 rad on each side (Log wraps at pi), and a quadratic a + b o + c o^2 is fitted to them by
+//   least squares, leaving out t and one block of up to max_run other samples (next to t: t's
+//   own run; or anywhere in the window: a run of pops near a clean t). Of all blocks, the fit
+//   with the smallest estimated prediction variance, mean squared residual per degree of freedom
+//   times (1 + leverage of t), is kept (a pop inside a fit spoils it), preferring fits of
+//   leverage <= 10 (far extrapolations at the clip ends are a last resort). The residual of t is
+//   |a| = d(q_t, q_t Exp(a)): how far t lies from the motion its clean neighbours predict. A
+//   quadratic follows real fast motion (constant angular acceleration); a pop, a jump away and
+//   back, no quadratic follows.
+//   Per joint the robust scale is the median over t of residual / sqrt(1 + leverage), and t is
+//   flagged when its residual exceeds max(threshold * scale * sqrt(1 + leverage), floor) and
+//   local_threshold times the fit's own prediction error (sqrt of the score above, a Hampel-type
+//   local scale): a pop stands out from neighbours that a quadratic fits well, whereas real
+//   motion that starts or stops abruptly leaves its neighbours badly fitted too. floor = 0.2 rad
+//   sits below the spec's smallest pop (0.3 rad). Measured on the CMU clips (300 frames each,
+//   tests/pop_repair_test.cpp), residual / fit error of the spec's pops: 0.5% below 6.4, 1%
+//   below 9.9; of the clean samples that pass the first test: half below 6.1 at 120 fps, three
+//   quarters below 6.1 at 30 fps.
+// Repair: each maximal run of flagged samples is replaced by slerp between the nearest unflagged
+// samples on either side, q_s Exp(u Log(q_s^-1 q_e)); at a clip end the nearest unflagged sample
+// is held. Sign continuity (spec "Sign continuity") with the sample before is kept.
+//
+// Limits: runs longer than max_run are not guaranteed to be found; at 30 fps real motion that
+// starts or stops within a frame or two (knees, feet, hands) is still flagged in about 0.17% of
+// the samples; real one-frame glitches of the data (0.2-0.7 rad on toes and fingers) are
+// flagged like pops; clips shorter than
+// kPopRepairMinFrames frames are returned unchanged (no neighbours to predict from); an isolated
+// jump at a clip end (the synthetic T-pose frame 0 of CMU conversions) looks like a pop and is
+// flagged. Joints that are not motion (kernels/joint_quality.hpp: flipping by pi, constant,
+// rounding) should be skipped: a joint flipping by pi is all pops to this test.
+#include <cstdint>
+#include <span>
+
+#include "kernels/motion_io.hpp"
+#include "kernels/quaternion.hpp"
+#include "kernels/status.hpp"
+
+namespace mocap {
+
+inline constexpr int kPopRepairMinFrames = 5;
+inline constexpr int kPopRepairMaxRun = 8;  // the fits per sample grow as window() * max_run
+
+struct PopRepairParams {
+  int max_run = 3;         // longest run of consecutive pops found for sure (rate 0.01 makes 3s)
+  int reach = 2;           // clean samples beyond a run, each side, that the fit needs
+  double threshold = 8.0;  // in robust scales (median residuals of the joint)
+  double floor = 0.2;      // rad: residuals below this are never pops
+  double local_threshold = 6;  // in the fit's own prediction error (0: no local test)
+
+  Status validate() const;
+  int window() const { return max_run + reach; }  // neighbours each side of a sample
+};
+
+// The steps of the job on one joint's curve (double), exposed for tests and measurements.
+// residuals[t]: the geodesic residual of t against its best clean quadratic fit (rad);
+// spreads[t]: sqrt(1 + leverage) of that fit, the factor by which its prediction error exceeds
+// the noise of one sample (about 1.1 inside the clip, more where the fit extrapolates);
+// fit_errors[t]: the chosen fit's estimated prediction error at t (rad).
+void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
+                   std::span<double> residuals, std::span<double> spreads,
+                   std::span<double> fit_errors);
+// The joint's robust scale: median over t of residuals[t] / spreads[t].
+double pop_scale(std::span<const double> residuals, std::span<const double> spreads);
+// flags[t] = 1 where residuals[t] > max(threshold * scale * spreads[t], floor) and
+// residuals[t] > local_threshold * fit_errors[t]; all 0 below
+// kPopRepairMinFrames frames. Returns the number of flagged samples.
+int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
+              std::span<std::uint8_t> flags);
+// out = curve with each run of flagged samples replaced by slerp between its unflagged
+// neighbours (held at a clip end; left as it is when no sample is unflagged).
+void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flags,
+                 std::span<Quat> out);
+
+struct PopRepairJob {
+  PopRepairParams params;
+  // Rotations in and out (io.frame_time is not used). Translations, when given, are copied
+  // unchanged. A job reads whole joint curves, so each output sample is bit-identical whatever
+  // slice computed it.
+  MotionIO io;
+  // Optional, one entry per joint: nonzero leaves that joint as it came (and counts nothing).
+  std::span<const std::uint8_t> skip_joints;
+  // Optional, one entry per joint: the number of flagged samples of the job's frame slice,
+  // written for the joints of the job's joint slice.
+  std::span<int> flagged_per_joint;
+  // Optional, [F][J] row-major: 1 where a sample is flagged, 0 elsewhere; written in the slice.
+  std::span<std::uint8_t> flagged_samples;
+  // false: detect only; the output is a bit-exact copy of the input, the counts are the same.
+  bool repair = true;
+
+  Status validate() const;
+  Status run() const;
+};
+
+}  // namespace mocap
