@@ -55,6 +55,29 @@ double window_weights(long t, long s_begin, long s_end, int search, int patch, d
   return sum + self;
 }
 
+// The range form's q'[t][j] (nlpm.hpp): the weights f(t, s) times exp(-d^2 / (2 range_sigma^2)),
+// d = |Log(q_t^-1 q_s)| the geodesic distance (Log's atan2 keeps small angles accurate), the self
+// weight f(t, t) as it is.
+Quat range_mean(const MotionIO& io, int j, long t, long s_begin, long s_end, double range_sigma,
+                const std::vector<double>& weights) {
+  const Quat qt = load_quat(io.rotations.at(int(t), j));
+  const Quat qt_inv = inverse(qt);
+  const double neg_inv_two_sigma2 = -1.0 / (2.0 * range_sigma * range_sigma);
+  double weight_sum = weights[std::size_t(t - s_begin)];
+  Vec3 acc;
+  for (long s = s_begin; s < s_end; ++s) {
+    if (s == t) continue;
+    const Vec3 v = log(qt_inv * load_quat(io.rotations.at(int(s), j)));
+    const double d2 = dot(v, v);
+    // d2 == 0 stays exactly f even if 1 / (2 sigma^2) overflowed to infinity.
+    const double w =
+        weights[std::size_t(s - s_begin)] * (d2 == 0 ? 1.0 : std::exp(d2 * neg_inv_two_sigma2));
+    acc += w * v;
+    weight_sum += w;
+  }
+  return qt * exp((1.0 / weight_sum) * acc);
+}
+
 // Output frame t of the job's joint slice from the window's weights.
 void write_frame(const NlpmJob& job, long t, long s_begin, long s_end,
                  const std::vector<double>& weights, double weight_sum) {
@@ -65,7 +88,9 @@ void write_frame(const NlpmJob& job, long t, long s_begin, long s_end,
     const Quat qt = load_quat(io.rotations.at(frame, j));
     Vec3 acc;
     Quat out;
-    if (job.params.space == NlpmSpace::tangent) {
+    if (job.params.range_sigma > 0) {
+      out = range_mean(io, j, t, s_begin, s_end, job.params.range_sigma, weights);
+    } else if (job.params.space == NlpmSpace::tangent) {
       const Quat qt_inv = inverse(qt);
       for (long s = s_begin; s < s_end; ++s) {
         if (s == t) continue;  // Log(q_t^-1 q_t) = 0
@@ -155,6 +180,14 @@ Status NlpmParams::validate() const {
   if (!(h >= 0) || !std::isfinite(h))
     return Status::error(
         "h must be a finite angle >= 0 rad (0 = derive it from the noise level), got " + number(h));
+  if (!(range_sigma >= 0) || !std::isfinite(range_sigma))
+    return Status::error("range_sigma must be a finite angle >= 0 rad (0 = off), got " +
+                         number(range_sigma));
+  if (range_sigma > 0 && space != NlpmSpace::tangent)
+    return Status::error(
+        "range_sigma > 0 needs space tangent (the log space is the paper's, "
+        "for comparison only), got space " +
+        std::string(to_string(space)));
   return {};
 }
 

@@ -9,6 +9,25 @@
 //     q'[t][j]  = q[t][j] Exp( sum_s f(t,s) Log(q[t][j]^-1 q[s][j]) / sum_s f(t,s) )   all joints
 //     p'[t][j]  = sum_s f(t,s) p[s][j] / sum_s f(t,s)                      translated joints
 //
+// Option range_sigma > 0, the robust (non-local bilateral) form, which neither paper has: each
+// joint's weights also carry a range term in that joint's own geodesic distance (spec
+// "Conventions"), so a sample of one joint that disagrees with q[t][j] (a pi flip of an uncaptured
+// thumb, a pop) is left out of that joint's mean instead of being averaged in:
+//
+//     w_j(t, s) = f(t,s) exp(-d(q[t][j], q[s][j])^2 / (2 range_sigma^2)),  w_j(t, t) = f(t, t)
+//     q'[t][j]  = q[t][j] Exp( sum_s w_j(t,s) Log(q[t][j]^-1 q[s][j]) / sum_s w_j(t,s) )
+//     p'[t][j]  = sum_s f(t,s) p[s][j] / sum_s f(t,s)                      (unchanged)
+//
+// Translations keep the whole-pose weights: range_sigma is an angle, a Euclidean range term would
+// need its own length scale in the file's unit (bof's sigma_p, infinite by default), and the
+// garbage the term is for (flipping, popping joints) lives in the rotations, not in the root's
+// path. The range term only vetoes, joint by joint, frames that f(t, s) picked: where a garbage
+// joint inside the pose distance misled f (toward frames whose garbage matches), it keeps the other
+// joints from averaging far-off poses in, but it cannot restore the weights f would have had
+// (NlpmJob::distance_joints keeps such a joint out of f). range_sigma = 0 stays the default: on
+// clean synthetic motion with clean f the term trades variance for bias and loses (tests/
+// nlpm_test.cpp, NlpmRange.*, prints the measurements).
+//
 // This is the fast form of the spec: the band E[u][delta] = e(u, u + delta) is evaluated once per
 // (u, |delta|), and D(t, t + delta) is a running box sum of E[.][delta] along t. nlpm_direct.hpp
 // holds the literal double sum, the test oracle.
@@ -30,8 +49,12 @@ struct NlpmParams {
   double h = 0;            // rad; 0 = not given: the caller derives it (engine). run() needs h > 0
   NlpmSpace space = NlpmSpace::tangent;
   Boundary boundary = Boundary::mirror;
+  // rad; 0 = off: exactly the spec's nlpm (bit for bit as without the option). > 0: the range
+  // term above with sigma_g = range_sigma (tangent space only; the log space is the paper's).
+  double range_sigma = 0;
 
-  // K >= 1, P >= 0 (both at most kNlpmMaxRadius), h >= 0 and finite (0 = still to be derived).
+  // K >= 1, P >= 0 (both at most kNlpmMaxRadius), h >= 0 and finite (0 = still to be derived),
+  // range_sigma >= 0 and finite, and range_sigma > 0 only with space tangent.
   Status validate() const;
 };
 
@@ -52,7 +75,8 @@ struct NlpmJob {
   // Every joint is filtered either way; the mask only chooses what the weights look at.
   std::span<const std::uint8_t> distance_joints;
   // fast: kernels/simd/nlpm_simd.hpp (float32 band and averaging, double weights) for the tangent
-  // space; the log space (comparison only) always runs the reference below.
+  // space, range form included (float32 range terms); the log space (comparison only) always
+  // runs the reference below.
   Implementation implementation = Implementation::fast;
 
   // params.validate(), h > 0, io.validate(), the mask's size and that it marks a joint.

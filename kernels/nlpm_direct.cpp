@@ -71,7 +71,19 @@ Status nlpm_direct(const NlpmParams& params, const MotionIO& io,
       const Quat qt = load_quat(q.at(int(t), j));
       Vec3 acc;
       Quat out;
-      if (params.space == NlpmSpace::tangent) {
+      if (params.range_sigma > 0) {  // w_j(t, s) of the range form, literally
+        const double two_sigma2 = 2 * params.range_sigma * params.range_sigma;
+        double w_sum = 0;
+        for (long s = s_begin; s < s_end; ++s) {
+          const Quat qs = load_quat(q.at(int(s), j));
+          const double d = geodesic(qt, qs);
+          const double w =
+              f[std::size_t(s - s_begin)] * (d == 0 ? 1.0 : std::exp(-d * d / two_sigma2));
+          acc += w * log(inverse(qt) * qs);
+          w_sum += w;
+        }
+        out = qt * exp((1.0 / w_sum) * acc);
+      } else if (params.space == NlpmSpace::tangent) {
         for (long s = s_begin; s < s_end; ++s)
           acc += f[std::size_t(s - s_begin)] * log(inverse(qt) * load_quat(q.at(int(s), j)));
         out = qt * exp((1.0 / f_sum) * acc);

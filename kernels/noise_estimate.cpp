@@ -21,7 +21,7 @@ double median(std::vector<double>& values) {
 
 }  // namespace
 
-NoiseEstimate estimate_noise(RotationView rotations) {
+NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_t> skip_joints) {
   const int frames = rotations.frames;
   NoiseEstimate result;
   if (rotations.empty() || frames < 3) return result;
@@ -29,6 +29,7 @@ NoiseEstimate estimate_noise(RotationView rotations) {
   std::vector<Vec3> steps(std::size_t(frames) - 1);
   std::vector<double> work, components, joint_sigmas;
   for (int j = 0; j < rotations.joints; ++j) {
+    if (!skip_joints.empty() && skip_joints[std::size_t(j)]) continue;
     work.clear();
     for (int t = 0; t + 1 < frames; ++t) {
       const Quat a = load_quat(rotations.at(t, j)), b = load_quat(rotations.at(t + 1, j));

@@ -8,6 +8,9 @@
 // carries n_{t+1} - 2 n_t + n_{t-1}, variance 6 sigma^2 per component, and 1.4826 MAD is a robust
 // standard deviation: sigma_hat estimates the `sigma` of the gaussian noise model. Sparse pops
 // (the impulse model) leave the medians untouched, by design of a robust estimator.
+#include <cstdint>
+#include <span>
+
 #include "kernels/tensor.hpp"
 
 namespace mocap {
@@ -23,6 +26,10 @@ struct NoiseEstimate {
 
 // Needs 3 frames for a second difference; shorter clips (and clips where nothing moves) give
 // {0, 0}: nothing to filter. Medians of an even count are the mean of the two middle values.
-NoiseEstimate estimate_noise(RotationView rotations);
+// `skip_joints` (empty, or one entry per joint): nonzero = left out, for joints known to be
+// garbage (kernels/joint_quality.hpp): a joint flipping by pi is "moving" to the step test, and
+// would count its flips as noise.
+NoiseEstimate estimate_noise(RotationView rotations,
+                             std::span<const std::uint8_t> skip_joints = {});
 
 }  // namespace mocap

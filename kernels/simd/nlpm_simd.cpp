@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -55,6 +56,40 @@ void AverageTangent(const float* planes, std::size_t stride, std::size_t count, 
   }
 }
 
+// The range form (nlpm.hpp) of AverageTangent: each sample's weight times its range term,
+//   w = weights[delta + K][i] exp(neg_scale d^2),  d^2 = |Log(q_i^-1 q_{i+delta})|^2,
+// normalised by their sum in the lane, which starts at the self weight weights[K][i].
+// neg_scale = -1 / (2 range_sigma^2), which may be -inf (range_sigma^2 underflowed): d^2 = 0
+// then still weighs f, as in the reference, and the exponent is clamped into Exp's valid range.
+void AverageTangentRange(const float* planes, std::size_t stride, std::size_t count, int search,
+                         const float* weights, float neg_scale, std::size_t wstride, float* out) {
+  const hn::ScalableTag<float> d;
+  using V = hn::Vec<decltype(d)>;
+  const std::size_t lanes = hn::Lanes(d), k = std::size_t(search);
+  const V scale = hn::Set(d, neg_scale), lowest = hn::Set(d, std::numeric_limits<float>::lowest()),
+          one = hn::Set(d, 1.0f);
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const QuatV<V> qt = LoadQuat(d, planes, stride, i + k);
+    Vec3V<V> acc{hn::Zero(d), hn::Zero(d), hn::Zero(d)};
+    V sum = hn::LoadU(d, weights + k * wstride + i);
+    for (std::size_t s = 0; s <= 2 * k; ++s) {
+      if (s == k) continue;
+      const Vec3V<V> v = Log(d, InverseTimes(qt, LoadQuat(d, planes, stride, i + s)));
+      const V d2 = hn::MulAdd(v.z, v.z, hn::MulAdd(v.y, v.y, hn::Mul(v.x, v.x)));
+      const V range = hn::IfThenElse(hn::Eq(d2, hn::Zero(d)), one,
+                                     hn::Exp(d, hn::Max(hn::Mul(d2, scale), lowest)));
+      const V f = hn::Mul(hn::LoadU(d, weights + s * wstride + i), range);
+      acc = {hn::MulAdd(f, v.x, acc.x), hn::MulAdd(f, v.y, acc.y), hn::MulAdd(f, v.z, acc.z)};
+      sum = hn::Add(sum, f);
+    }
+    // A frame's sum is at least its self weight f(t, t) = 1 (exactly, in float too); only the
+    // padding lanes past `count`, whose weights are all 0, are raised to 1 here.
+    const V inv = hn::Div(one, hn::Max(sum, one));
+    const Vec3V<V> mean{hn::Mul(acc.x, inv), hn::Mul(acc.y, inv), hn::Mul(acc.z, inv)};
+    StoreQuat(d, Multiply(qt, Exp(d, mean)), out, stride, i);
+  }
+}
+
 }  // namespace mocap::simd::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
@@ -63,6 +98,7 @@ namespace mocap::simd {
 
 HWY_EXPORT(AccumulatePoseBand);
 HWY_EXPORT(AverageTangent);
+HWY_EXPORT(AverageTangentRange);
 
 void accumulate_pose_band(const float* planes, std::size_t stride, std::size_t count, int max_delta,
                           float* band) {
@@ -195,9 +231,16 @@ void average_chunk(const NlpmJob& job, int search, long begin, long end, const C
   for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
     std::vector<float>& result = out[std::size_t(j - io.joint_begin)];
     result.resize(4 * curves.stride);
-    HWY_DYNAMIC_DISPATCH(AverageTangent)
-    (curves.at(j, begin - search), curves.stride, count, search, w.rows.data(), w.inv_sum.data(),
-     w.wstride, result.data());
+    if (job.params.range_sigma > 0) {
+      const double range_sigma = job.params.range_sigma;
+      HWY_DYNAMIC_DISPATCH(AverageTangentRange)
+      (curves.at(j, begin - search), curves.stride, count, search, w.rows.data(),
+       float(-1.0 / (2.0 * range_sigma * range_sigma)), w.wstride, result.data());
+    } else {
+      HWY_DYNAMIC_DISPATCH(AverageTangent)
+      (curves.at(j, begin - search), curves.stride, count, search, w.rows.data(), w.inv_sum.data(),
+       w.wstride, result.data());
+    }
   }
   std::vector<const float*> planes;
   for (const auto& result : out)

@@ -4,7 +4,9 @@
 // consecutive frames (one joint at a time), with Highway dynamic dispatch. Between them, per
 // frame, the box sums of the band, D_min and the weights f(t, s) are computed in double exactly as
 // kernels/nlpm.cpp does (anchored every kNlpmAnchorFrames frames), so each output sample is
-// bit-identical whatever time or joint slice computed it. The log space stays on the reference.
+// bit-identical whatever time or joint slice computed it. The range form (range_sigma > 0) takes
+// its per-joint range terms exp(-d^2 / (2 range_sigma^2)) in float32 inside the averaging, from
+// the same Log(q_t^-1 q_s) it averages. The log space stays on the reference.
 #include <cstddef>
 
 #include "kernels/nlpm.hpp"
