@@ -124,8 +124,10 @@ int run_cli(int argc, char** argv) {
   noise.run.add_to(*noise_cmd);
 
   JoinCommand join;
-  CLI::App* join_cmd = app.add_subcommand("join", "join part files (of shards or ranks) into one library file");
-  join_cmd->add_option("PARTS", join.parts, "part files, or folders of them (OUT.h5.parts)")->required();
+  CLI::App* join_cmd =
+      app.add_subcommand("join", "join part files (of shards or ranks) into one library file");
+  join_cmd->add_option("PARTS", join.parts, "part files, or folders of them (OUT.h5.parts)")
+      ->required();
   join_cmd->add_option("-o,--output", join.output, "the library file to write")->required();
 
   InfoCommand info;
@@ -135,6 +137,9 @@ int run_cli(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   info_cmd->add_flag("--clips", info.list_clips, "list every clip");
+  info_cmd->add_flag("--joints", info.joints,
+                     "read every clip and name its garbage joints: constant, moving only by "
+                     "float rounding, or flipping by ~pi (uncaptured)");
   info_cmd->add_flag("--json", info.json, "machine-readable output on stdout");
 
   EvalCommand eval;

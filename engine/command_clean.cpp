@@ -2,6 +2,7 @@
 // library commands.
 #include <fmt/core.h>
 
+#include "engine/clip_conditioning.hpp"
 #include "engine/commands.hpp"
 #include "engine/job.hpp"
 
@@ -16,12 +17,12 @@ void report(const RunSummary& summary, bool json) {
   }
   fmt::print(stderr,
              "{}: {} clips, {} frames, {} joint-frames in {:.2f} s ({:.2f} M joint-frames/s, {} "
-             "threads){}{}\n",
+             "threads){}{}\n{}",
              summary.command, summary.clips, summary.frames, summary.joint_frames, summary.seconds,
              summary.seconds > 0 ? double(summary.joint_frames) / summary.seconds / 1e6 : 0.0,
              summary.threads,
              summary.failed.empty() ? "" : fmt::format(", {} failed", summary.failed.size()),
-             summary.interrupted ? ", interrupted" : "");
+             summary.interrupted ? ", interrupted" : "", describe_conditioning(summary.to_json()));
 }
 
 RunSummary clean_files(const std::vector<SourceFile>& files, const std::string& output_dir,

@@ -13,6 +13,7 @@
 #include "engine/version.hpp"
 #include "io/compression.hpp"
 #include "io/library_join.hpp"
+#include "kernels/joint_quality.hpp"
 #include "kernels/noise_model.hpp"
 
 namespace mocap::engine {
@@ -363,6 +364,25 @@ int run_info(const InfoCommand& command) {
                        {"input_file", p->input_file},
                        {"created", p->created}};
   }
+  if (command.joints) {
+    // Garbage joints, read clip by clip (the data, not only the headers).
+    nlohmann::json garbage = nlohmann::json::array();
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < source->count(); ++i) {
+      std::optional<io::Clip> clip = source->read(i, &error);
+      if (!clip) continue;  // already listed as unreadable
+      nlohmann::json joints = nlohmann::json::array();
+      const std::vector<JointQuality> quality = classify_joints(clip->rotation_view());
+      for (std::size_t jt = 0; jt < quality.size(); ++jt)
+        if (is_garbage(quality[jt].joint_class))
+          joints.push_back({{"joint", clip->skeleton->joint_names[jt]},
+                            {"class", std::string(to_string(quality[jt].joint_class))}});
+      count += joints.size();
+      if (!joints.empty())
+        garbage.push_back({{"clip", source->clip_path(i)}, {"joints", std::move(joints)}});
+    }
+    j["garbage_joints"] = {{"joints", count}, {"by_clip", garbage}};
+  }
   j["unreadable"] = unreadable;
   if (command.list_clips) j["clip_list"] = clips;
   if (command.json) {
@@ -384,6 +404,18 @@ int run_info(const InfoCommand& command) {
     for (const auto& c : clips)
       fmt::print("  {}  {} frames x {} joints  {:.6g} s/frame\n", c["path"].get<std::string>(),
                  c["frames"].get<int>(), c["joints"].get<int>(), c["frame_time"].get<double>());
+  if (j.contains("garbage_joints")) {
+    fmt::print("  garbage joints: {} in {} clips\n",
+               j["garbage_joints"]["joints"].get<std::size_t>(),
+               j["garbage_joints"]["by_clip"].size());
+    for (const auto& c : j["garbage_joints"]["by_clip"]) {
+      std::string names;
+      for (const auto& g : c["joints"])
+        names += fmt::format("{}{} ({})", names.empty() ? "" : ", ", g["joint"].get<std::string>(),
+                             g["class"].get<std::string>());
+      fmt::print("  {}: {}\n", c["clip"].get<std::string>(), names);
+    }
+  }
   for (const auto& u : unreadable)
     fmt::print(stderr, "mocap-clean: info: {}: {}\n", u["clip"].get<std::string>(),
                u["error"].get<std::string>());

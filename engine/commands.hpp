@@ -82,6 +82,7 @@ struct InfoCommand {
   std::string input;
   bool json = false;
   bool list_clips = false;
+  bool joints = false;  // --joints: read every clip and name its garbage joints
 };
 int run_info(const InfoCommand& command);
 

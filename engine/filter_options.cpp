@@ -1,6 +1,9 @@
 #include "engine/filter_options.hpp"
 
+#include <cmath>
+#include <cstdlib>
 #include <limits>
+#include <string>
 
 namespace mocap::engine {
 
@@ -11,9 +14,10 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses\n"
                  "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)\n"
                  "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline\n"
+                 "auto: the method and its parameters chosen per clip from its measured noise\n"
                  "none: copy (checks the round trip)")
       ->check(CLI::IsMember(
-          {"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman"}))
+          {"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "auto"}))
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--sigma-t", sigma_t,
@@ -62,6 +66,19 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"tangent", "log"}))
       ->capture_default_str()
       ->group("Filter");
+  cmd.add_option("--nlpm-range", nlpm_range,
+                 "nlpm: per-joint range term, off (the spec's nlpm), auto (5 x the estimated "
+                 "noise) or a width in radians: a joint that disagrees cannot drag the others")
+      ->check([](const std::string& v) -> std::string {
+        if (v == "off" || v == "auto") return "";
+        char* end = nullptr;
+        const double x = std::strtod(v.c_str(), &end);
+        return end != v.c_str() && *end == '\0' && x > 0 && std::isfinite(x)
+                   ? ""
+                   : "expected off, auto or a positive width in radians, got " + v;
+      })
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--order", order, "butterworth: filter order n")
       ->check(CLI::Range(1, 8))
       ->capture_default_str()
@@ -84,6 +101,21 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"mirror", "hold", "extrapolate"}))
       ->capture_default_str()
       ->group("Filter");
+  cmd.add_option("--pops", pops,
+                 "before the filter: repair pops (samples that jump away and come back) by "
+                 "slerp; detect: only count them; auto: repair at 60 fps and more, only count "
+                 "below (a 30 fps limb moves too fast to tell); off: the spec's filter exactly "
+                 "(garbage joints then filtered like the others)")
+      ->check(CLI::IsMember({"auto", "repair", "detect", "off"}))
+      ->capture_default_str()
+      ->group("Cleaning");
+  cmd.add_option("--garbage-joints", garbage_joints,
+                 "joints that are constant, move only by float rounding or flip by ~pi "
+                 "(uncaptured): keep them as they came (and out of nlpm's pose distance), or "
+                 "filter them like the others (ignored with --pops off)")
+      ->check(CLI::IsMember({"keep", "filter"}))
+      ->capture_default_str()
+      ->group("Cleaning");
   cmd.add_option("--translations", translations, "filter the position channels too, or keep them")
       ->check(CLI::IsMember({"filter", "keep"}))
       ->capture_default_str()
@@ -123,6 +155,9 @@ FilterSettings FilterOptions::settings() const {
   s.kalman.lambda = kalman_lambda;
   s.kalman.boundary = b;
   s.filter_translations = translations == "filter";
+  s.pops = parse_pops_mode(pops).value_or(PopsMode::automatic);
+  s.keep_garbage_joints = garbage_joints == "keep";
+  s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;
   return s;

@@ -17,7 +17,30 @@ std::optional<Method> parse_method(std::string_view name) {
   if (name == "butterworth") return Method::butterworth;
   if (name == "moving-mean") return Method::moving_mean;
   if (name == "kalman") return Method::kalman;
+  if (name == "auto") return Method::automatic;
   return std::nullopt;
+}
+
+std::optional<PopsMode> parse_pops_mode(std::string_view name) {
+  if (name == "off") return PopsMode::off;
+  if (name == "detect") return PopsMode::detect;
+  if (name == "repair") return PopsMode::repair;
+  if (name == "auto") return PopsMode::automatic;
+  return std::nullopt;
+}
+
+std::string_view to_string(PopsMode mode) {
+  switch (mode) {
+    case PopsMode::off:
+      return "off";
+    case PopsMode::detect:
+      return "detect";
+    case PopsMode::repair:
+      return "repair";
+    case PopsMode::automatic:
+      return "auto";
+  }
+  return "?";
 }
 
 std::string_view to_string(Method method) {
@@ -36,6 +59,8 @@ std::string_view to_string(Method method) {
       return "moving-mean";
     case Method::kalman:
       return "kalman";
+    case Method::automatic:
+      return "auto";
   }
   return "?";
 }
@@ -58,11 +83,32 @@ BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, do
   return params;
 }
 
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
+                                double /*frame_time*/) {
+  FilterSettings s = settings;
+  if (sigma_hat < kAutoNlpmBelow) {
+    s.method = Method::nlpm;
+    s.nlpm = NlpmParams{};
+    s.nlpm.boundary = settings.nlpm.boundary;
+    s.nlpm_range = -1;  // automatic: kNlpmAutoRangeFactor sigma_hat
+  } else {
+    s.method = Method::bof;
+    s.bilateral = BilateralParams{};
+    s.bilateral.boundary = settings.bilateral.boundary;
+    s.bilateral.sigma_g = 0;  // automatic_bilateral
+    s.bilateral.sigma_t = 0;
+  }
+  return s;
+}
+
 Status FilterSettings::validate() const {
   if (shard_joints < 1) return Status::error("shard joints must be >= 1");
   if (shard_frames < 1) return Status::error("shard frames must be >= 1");
+  if (!std::isfinite(nlpm_range))
+    return Status::error("nlpm's range sigma must be finite (0 = off, < 0 = automatic)");
   switch (method) {
     case Method::none:
+    case Method::automatic:
       return {};
     case Method::bof: {
       BilateralParams p = bilateral;
@@ -89,8 +135,13 @@ nlohmann::json FilterSettings::to_json() const {
   nlohmann::json j;
   j["method"] = std::string(to_string(method));
   j["translations"] = filter_translations ? "filter" : "keep";
+  if (method != Method::none) {
+    j["pops"] = std::string(to_string(pops));
+    if (pops != PopsMode::off) j["garbage_joints"] = keep_garbage_joints ? "keep" : "filter";
+  }
   switch (method) {
     case Method::none:
+    case Method::automatic:
       break;
     case Method::bof:
       j["sigma_t"] =
@@ -108,6 +159,7 @@ nlohmann::json FilterSettings::to_json() const {
       j["patch_radius"] = nlpm.patch_radius;
       j["h"] = nlpm.h == 0 ? nlohmann::json("auto") : nlohmann::json(nlpm.h);
       j["space"] = nlpm.space == NlpmSpace::log ? "log" : "tangent";
+      j["range_sigma"] = nlpm_range < 0 ? nlohmann::json("auto") : nlohmann::json(nlpm_range);
       j["boundary"] = std::string(to_string(nlpm.boundary));
       break;
     case Method::gaussian:
@@ -132,37 +184,56 @@ nlohmann::json FilterSettings::to_json() const {
   return j;
 }
 
-ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip) {
-  ResolvedSettings r{settings};
+ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip,
+                                  std::span<const std::uint8_t> garbage) {
+  ResolvedSettings r;
+  r.settings = settings;
   r.settings.linear.kind = linear_kind(settings.method);
   if (settings.method == Method::none || clip.frames < 2) {
     r.unchanged = true;
     return r;
   }
-  if (settings.method == Method::nlpm && settings.nlpm.h == 0) {
-    const NoiseEstimate noise = estimate_noise(clip.rotation_view());
+  // Garbage joints count only with the robust stages on: pops off is the spec's filter exactly.
+  const bool robust = settings.pops != PopsMode::off;
+  const bool any_garbage =
+      robust && std::any_of(garbage.begin(), garbage.end(), [](std::uint8_t g) { return g; });
+  if (any_garbage) {
+    if (settings.keep_garbage_joints) r.kept_joints.assign(garbage.begin(), garbage.end());
+    r.distance_joints.resize(garbage.size());
+    for (std::size_t j = 0; j < garbage.size(); ++j) r.distance_joints[j] = garbage[j] ? 0 : 1;
+    if (std::none_of(r.distance_joints.begin(), r.distance_joints.end(),
+                     [](std::uint8_t d) { return d; }))
+      r.distance_joints.clear();  // nothing but garbage: the spec's whole-pose distance
+  }
+
+  const Method asked = settings.method;
+  const bool automatic_nlpm =
+      asked == Method::nlpm && (settings.nlpm.h == 0 || settings.nlpm_range < 0);
+  const bool automatic_bof =
+      asked == Method::bof && (settings.bilateral.sigma_g == 0 || settings.bilateral.sigma_t == 0);
+  const bool automatic_kalman = asked == Method::kalman && settings.kalman.lambda == 0;
+  if (asked == Method::automatic || automatic_nlpm || automatic_bof || automatic_kalman) {
+    const NoiseEstimate noise = estimate_noise(
+        clip.rotation_view(), any_garbage ? garbage : std::span<const std::uint8_t>{});
     r.noise_sigma = noise.sigma;
     if (noise.moving_joints == 0 || noise.sigma <= 0) {
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
       return r;
     }
-    r.settings.nlpm.h = kNlpmAutoFactor * noise.sigma;
-  }
-  // bof and kalman: the same, for the parameters left at 0 (automatic).
-  const bool automatic_bof = settings.method == Method::bof &&
-                             (settings.bilateral.sigma_g == 0 || settings.bilateral.sigma_t == 0);
-  const bool automatic_kalman = settings.method == Method::kalman && settings.kalman.lambda == 0;
-  if (automatic_bof || automatic_kalman) {
-    const NoiseEstimate noise = estimate_noise(clip.rotation_view());
-    r.noise_sigma = noise.sigma;
-    if (noise.moving_joints == 0 || noise.sigma <= 0) {
-      r.unchanged = true;
-      return r;
+    if (asked == Method::automatic)
+      r.settings = choose_automatic(settings, noise.sigma, clip.frame_time);
+    FilterSettings& s = r.settings;
+    s.linear.kind = linear_kind(s.method);
+    if (s.method == Method::nlpm) {
+      if (s.nlpm.h == 0) s.nlpm.h = kNlpmAutoFactor * noise.sigma;
+      if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * noise.sigma;
     }
-    r.settings.bilateral = automatic_bilateral(settings.bilateral, noise.sigma, clip.frame_time);
-    if (automatic_kalman)
-      r.settings.kalman.lambda = kalman_auto_lambda(noise.sigma, clip.frame_time);
+    if (s.method == Method::bof)
+      s.bilateral = automatic_bilateral(s.bilateral, noise.sigma, clip.frame_time);
+    if (s.method == Method::kalman && s.kalman.lambda == 0)
+      s.kalman.lambda = kalman_auto_lambda(noise.sigma, clip.frame_time);
   }
+  r.settings.nlpm.range_sigma = std::max(0.0, r.settings.nlpm_range);
   return r;
 }
 
@@ -212,18 +283,36 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
   io.frame_begin = shard.frame_begin;
   io.frame_end = shard.frame_end;
 
+  Status status;
   switch (s.method) {
     case Method::bof:
-      return BilateralJob{s.bilateral, io}.run();
+      status = BilateralJob{s.bilateral, io}.run();
+      break;
     case Method::nlpm:
-      return NlpmJob{s.nlpm, io, {}}.run();
+      status = NlpmJob{s.nlpm, io, resolved.distance_joints}.run();
+      break;
     case Method::none:
-      return {};
+    case Method::automatic:  // resolved per clip; never left automatic
+      break;
     case Method::kalman:
-      return KalmanJob{s.kalman, io}.run();
+      status = KalmanJob{s.kalman, io}.run();
+      break;
     default:
-      return LinearFilterJob{s.linear, io}.run();
+      status = LinearFilterJob{s.linear, io}.run();
+      break;
   }
+  // Garbage joints as they came (after the filter: nlpm writes whole poses).
+  for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j) {
+    if (!resolved.kept_joints[std::size_t(j)]) continue;
+    for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
+      const std::size_t at = std::size_t(t) * J + std::size_t(j);
+      std::memcpy(output.rotations.data() + at * 4, input.rotations.data() + at * 4,
+                  sizeof(float) * 4);
+      std::memcpy(output.translations.data() + at * 3, input.translations.data() + at * 3,
+                  sizeof(float) * 3);
+    }
+  }
+  return status;
 }
 
 }  // namespace mocap::engine

@@ -1,8 +1,10 @@
 #pragma once
 // What a filter run is asked to do: the method, every parameter of the spec, and how a clip is
 // cut into shards. Resolves the automatic parameters per clip and runs one shard's job.
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -17,7 +19,21 @@ namespace mocap::engine {
 
 struct Shard;
 
-enum class Method { none, bof, nlpm, gaussian, butterworth, moving_mean, kalman };
+// automatic: chosen per clip from what the clip shows (choose_automatic below).
+enum class Method { none, bof, nlpm, gaussian, butterworth, moving_mean, kalman, automatic };
+
+// Pop repair before the filter (engine/clip_conditioning.hpp): off = the spec's filter exactly;
+// auto = repair at kPopsRepairMinFps and above, detect (count only) below.
+enum class PopsMode { off, detect, repair, automatic };
+// Measured with `eval` on ../shared/data/bvh (README "Pops"): at 120 fps the repair gains 20 dB
+// on the spec's pops and costs 0.05-0.7 dB on gaussian noise (where it mostly repairs glitches
+// of the captures themselves); at 30 fps (--frame-step 4) a quadratic no longer predicts fast
+// limbs well enough: it flags 0.17 % of clean samples and loses up to 6 dB at low noise (17 dB
+// on short clips), while the spec's pops (rate 1 %) gain 7 dB: no rule on the flag rate
+// separated the two on the shared clips, so below 60 fps auto only counts.
+inline constexpr double kPopsRepairMinFps = 60;
+std::optional<PopsMode> parse_pops_mode(std::string_view name);
+std::string_view to_string(PopsMode mode);
 
 std::optional<Method> parse_method(std::string_view name);
 std::string_view to_string(Method method);
@@ -40,8 +56,18 @@ inline constexpr double kBofAutoSigmaTFactor = 10.0;
 // `params` with its zero sigma_g / sigma_t replaced by the rule above.
 BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, double frame_time);
 
+// nlpm's automatic range term (NlpmParams::range_sigma), asked for with --nlpm-range auto:
+// range_sigma = kNlpmAutoRangeFactor * sigma_hat (README "Automatic parameters").
+inline constexpr double kNlpmAutoRangeFactor = 5.0;
+
 struct FilterSettings {
   Method method = Method::none;
+  // Before the filter (not for `none`, which copies): pop repair, and garbage joints (constant,
+  // rounding-only, flipping) kept as they came and out of nlpm's pose distance. pops off turns
+  // both off: the spec's filter exactly, on every joint.
+  PopsMode pops = PopsMode::off;
+  bool keep_garbage_joints = true;  // --garbage-joints keep|filter (with pops detect|repair)
+  double nlpm_range = 0;            // nlpm's range_sigma: 0 off, < 0 automatic, > 0 given (rad)
   BilateralParams bilateral;
   LinearParams linear;
   NlpmParams nlpm;                  // h == 0: derived per clip from the estimated noise
@@ -56,11 +82,29 @@ struct FilterSettings {
 
 // The per-clip resolution of automatic parameters, done once on the whole clip before sharding.
 struct ResolvedSettings {
-  FilterSettings settings;
+  FilterSettings settings;  // method automatic: the method it chose
   double noise_sigma = -1;  // estimated, when it was needed; -1 otherwise
   bool unchanged = false;   // nothing to filter (1 frame, or no joint moves for automatic h)
+  // Joints whose samples are copied as they came (garbage joints), one entry per joint; and the
+  // joints nlpm's pose distance looks at (empty: all).
+  std::vector<std::uint8_t> kept_joints, distance_joints;
 };
-ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip);
+// `garbage` (empty, or one entry per joint, nonzero = garbage) comes from the clip's
+// conditioning: garbage joints stay out of the noise estimate and nlpm's distance and, with
+// keep_garbage_joints, are copied as they came.
+ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip,
+                                  std::span<const std::uint8_t> garbage = {});
+
+// What --method auto picks for a clip of estimated noise sigma_hat (rad) and frame time (s):
+// the method and its automatic parameters (README "Automatic parameters"). Measured with `eval`
+// on ../shared/data/bvh: nlpm with its range term is best up to 0.03 rad, bof at 0.12 rad; the
+// switch sits between them (geometric middle).
+//   sigma_hat < kAutoNlpmBelow:  nlpm, h = kNlpmAutoFactor sigma_hat, range = kNlpmAutoRangeFactor
+//                                sigma_hat, K = 10, P = 5
+//   otherwise:                   bof, automatic_bilateral
+inline constexpr double kAutoNlpmBelow = 0.06;
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
+                                double frame_time);
 
 // The output slices of a clip: joint blocks for per-joint methods, time blocks for nlpm.
 std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int joints);

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "engine/clip_checks.hpp"
+#include "engine/clip_conditioning.hpp"
 #include "engine/interrupt.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/progress.hpp"
@@ -18,6 +19,7 @@ namespace {
 struct ClipState {
   ResolvedSettings resolved;
   std::any prepared;  // the sink's form of the finished clip
+  ClipConditioning conditioning;
 };
 
 }  // namespace
@@ -42,6 +44,9 @@ RunSummary run_job(const Job& job) {
   Progress progress(job.label, selection.size(),
                     job.run.progress && !job.run.json && Progress::stderr_is_terminal());
   const FilterSettings& settings = job.filter;
+  ConditioningTally tally;
+  tally.mode = settings.pops;
+  tally.keep_garbage = settings.keep_garbage_joints;
   PipelineStages stages;
   stages.count = selection.size();
   stages.read = [&](WorkItem& item) {
@@ -60,7 +65,9 @@ RunSummary run_job(const Job& job) {
     // Filters expect each joint's curve on one hemisphere (spec "Sign continuity"); a library
     // written by another tool may not be. Same rotations, so harmless for `none`.
     make_hemisphere_continuous(item.input.rotation_span());
-    ClipState state{resolve_for_clip(settings, item.input), {}};
+    ClipConditioning conditioning = condition_clip(settings, item.input);
+    ClipState state{
+        resolve_for_clip(settings, item.input, conditioning.garbage), {}, std::move(conditioning)};
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);
@@ -68,7 +75,8 @@ RunSummary run_job(const Job& job) {
       return {};
     }
     item.output = item.input;  // skeleton, frame time, source; the shards overwrite the tensors
-    return plan_shards(settings, item.input.frames, item.input.joints());
+    return plan_shards(std::any_cast<ClipState&>(item.context).resolved.settings, item.input.frames,
+                       item.input.joints());
   };
   stages.process = [&](WorkItem& item, const Shard& shard) {
     const auto& state = std::any_cast<const ClipState&>(item.context);
@@ -96,6 +104,7 @@ RunSummary run_job(const Job& job) {
     }
     if (item.error.empty()) {
       summary.add_clip(std::size_t(item.output.frames), std::size_t(item.output.joints()));
+      tally.add(item.name, item.output, std::any_cast<ClipState&>(item.context).conditioning);
     } else {
       summary.failed.push_back({item.name, item.error});
     }
@@ -108,6 +117,7 @@ RunSummary run_job(const Job& job) {
   const std::size_t read = run_pipeline(stages, options);
   progress.finish();
   summary.interrupted = read < selection.size();
+  if (settings.method != Method::none) tally.write_to(summary.extra);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

@@ -27,7 +27,8 @@ std::optional<ShardSpec> parse_shard(const std::string& text, std::string* error
 }
 
 std::vector<std::size_t> shard_selection(const ClipSource& source,
-                                         const std::vector<std::size_t>& candidates, ShardSpec spec) {
+                                         const std::vector<std::size_t>& candidates,
+                                         ShardSpec spec) {
   if (!spec.active()) return candidates;
   std::vector<std::pair<std::size_t, std::size_t>> by_cost;  // (cost, index)
   for (std::size_t i : candidates) by_cost.emplace_back(source.cost(i), i);

@@ -23,6 +23,7 @@ std::optional<ShardSpec> parse_shard(const std::string& text, std::string* error
 // clips' costs (frames x joints; ties broken by index), so shards finish close together. The
 // same candidates give the same split in every process; sorted by index.
 std::vector<std::size_t> shard_selection(const ClipSource& source,
-                                         const std::vector<std::size_t>& candidates, ShardSpec spec);
+                                         const std::vector<std::size_t>& candidates,
+                                         ShardSpec spec);
 
 }  // namespace mocap::engine

@@ -1,0 +1,162 @@
+#include "engine/clip_conditioning.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <numeric>
+#include <stdexcept>
+
+#include "kernels/motion_split.hpp"
+#include "kernels/pop_repair.hpp"
+#include "kernels/quaternion.hpp"
+
+namespace mocap::engine {
+
+bool ClipConditioning::any_garbage() const {
+  return std::any_of(garbage.begin(), garbage.end(), [](std::uint8_t g) { return g != 0; });
+}
+
+std::size_t ClipConditioning::pop_count() const {
+  return std::accumulate(pops.begin(), pops.end(), std::size_t(0));
+}
+
+namespace {
+
+// Frames [begin, end) between steps that no joint can make, over the joints that are not garbage.
+std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
+                                     const std::vector<std::uint8_t>& garbage) {
+  const double limit = MotionSplitParams{}.step_threshold(frame_time);
+  std::vector<ImpossibleStep> steps;
+  for (int t = 0; t + 1 < rotations.frames; ++t)
+    for (int j = 0; j < rotations.joints; ++j) {
+      if (garbage[std::size_t(j)]) continue;
+      const double angle =
+          geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
+      if (angle > limit) {
+        steps.push_back({t, j, angle});
+        break;
+      }
+    }
+  return split_segments(rotations.frames, steps);
+}
+
+}  // namespace
+
+ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time) {
+  ClipConditioning c;
+  const int J = rotations.joints;
+  const RotationView view{rotations.data, rotations.frames, J};
+  c.joints = classify_joints(view);
+  c.garbage.resize(std::size_t(J));
+  for (int j = 0; j < J; ++j)
+    c.garbage[std::size_t(j)] = is_garbage(c.joints[std::size_t(j)].joint_class);
+  c.pops.assign(std::size_t(J), 0);
+  if (mode == PopsMode::off || J == 0) return c;
+
+  // Constant and rounding-only joints are repaired too (a pop on a still joint is the easiest to
+  // tell); a flipping joint is all pops to the test and is left as it came.
+  std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
+  for (int j = 0; j < J; ++j)
+    flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
+  std::vector<int> found(std::size_t(J), 0);
+  std::vector<float> repaired;
+  const std::vector<Segment> segments = motion_segments(view, frame_time, flipping);
+  auto run = [&](bool repair) {
+    std::fill(c.pops.begin(), c.pops.end(), 0);
+    for (const Segment& seg : segments) {
+      const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;
+      repaired.resize(std::size_t(seg.frames()) * std::size_t(J) * 4);
+      PopRepairJob job;
+      job.io.frame_time = frame_time;
+      job.io.rotations = {rotations.data + offset, seg.frames(), J};
+      job.io.filtered_rotations = {repaired.data(), seg.frames(), J};
+      job.skip_joints = flipping;
+      job.flagged_per_joint = found;
+      job.repair = repair;
+      if (const Status s = job.run(); !s.ok())
+        throw std::runtime_error("pop repair: " + s.message());
+      for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
+      if (repair) std::copy(repaired.begin(), repaired.end(), rotations.data + offset);
+    }
+  };
+  const bool repair = mode == PopsMode::repair || (mode == PopsMode::automatic && frame_time > 0 &&
+                                                   1.0 / frame_time >= kPopsRepairMinFps);
+  c.repaired = repair;
+  run(repair);
+  return c;
+}
+
+ClipConditioning condition_clip(const FilterSettings& settings, io::Clip& clip) {
+  if (settings.method == Method::none) return {};  // a copy, nothing else
+  return condition_rotations(settings.pops, clip.rotation_span(), clip.frame_time);
+}
+
+void ConditioningTally::add(const std::string& clip, const io::Clip& data,
+                            const ClipConditioning& c) {
+  const std::size_t found = c.pop_count();
+  if (found > 0) {
+    pops += found;
+    if (c.repaired) repaired += found;
+    ++clips_with_pops;
+    for (std::size_t j = 0; j < c.pops.size(); ++j)
+      if (c.pops[j] > 0) pops_by_joint[data.skeleton->joint_names[j]] += std::size_t(c.pops[j]);
+  }
+  if (!c.any_garbage()) return;
+  nlohmann::json joints = nlohmann::json::array();
+  for (std::size_t j = 0; j < c.garbage.size(); ++j)
+    if (c.garbage[j])
+      joints.push_back({{"joint", data.skeleton->joint_names[j]},
+                        {"class", std::string(to_string(c.joints[j].joint_class))}});
+  garbage_joints += joints.size();
+  ++clips_with_garbage;
+  garbage.push_back({{"clip", clip}, {"joints", std::move(joints)}});
+}
+
+void ConditioningTally::write_to(nlohmann::json& summary) const {
+  summary["pops"] = {{"mode", std::string(to_string(mode))},
+                     {"samples", pops},
+                     {"repaired", repaired},
+                     {"clips", clips_with_pops},
+                     {"by_joint", pops_by_joint}};
+  summary["garbage_joints"] = {
+      {"joints", garbage_joints},
+      {"clips", clips_with_garbage},
+      {"handling",
+       mode != PopsMode::off && keep_garbage ? "kept as they came" : "filtered like the others"},
+      {"by_clip", garbage}};
+}
+
+std::string describe_conditioning(const nlohmann::json& summary) {
+  if (!summary.contains("pops") || !summary.contains("garbage_joints")) return "";
+  const auto& p = summary["pops"];
+  const auto& g = summary["garbage_joints"];
+  const std::string mode = p["mode"].get<std::string>();
+  std::string line;
+  if (mode != "off") {
+    // The joints with most pops first (at most three).
+    std::vector<std::pair<std::size_t, std::string>> most;
+    for (const auto& [joint, n] : p["by_joint"].items())
+      most.push_back({n.get<std::size_t>(), joint});
+    std::sort(most.begin(), most.end(), [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    std::string top;
+    for (std::size_t i = 0; i < std::min<std::size_t>(3, most.size()); ++i)
+      top += fmt::format("{}{} {}", i ? ", " : " (", most[i].second, most[i].first);
+    if (!top.empty()) top += most.size() > 3 ? ", ...)" : ")";
+    const std::size_t found = p["samples"].get<std::size_t>(),
+                      fixed = p["repaired"].get<std::size_t>();
+    line += fmt::format(
+        "  pops: {} found in {} clips{}, {}\n", found, p["clips"].get<std::size_t>(), top,
+        fixed == found ? std::string("all repaired")
+        : fixed == 0   ? std::string("none repaired (--pops repair to force)")
+                       : fmt::format("{} repaired (below 60 fps only counted)", fixed));
+  }
+  if (g["joints"].get<std::size_t>() > 0)
+    line += fmt::format("  garbage joints (constant, rounding or flipping): {} in {} clips, {}\n",
+                        g["joints"].get<std::size_t>(), g["clips"].get<std::size_t>(),
+                        g["handling"].get<std::string>());
+  return line;
+}
+
+}  // namespace mocap::engine
