@@ -70,7 +70,8 @@ TEST(EvalCommand, WritesTheReportWithTheExpectedStructure) {
   write_short_clips(in.path());
   const std::string common =
       " --noise gaussian:0.03 --noise impulse --methods bof,nlpm,kalman --grid bof.sigma_g=0.1,0.3"
-      " --grid bof.sigma_t=1 --grid nlpm.h=0.02,0.05 --grid kalman.lambda=0.01 --seed 3";
+      " --grid bof.sigma_t=1 --grid nlpm.h=0.02,0.05 --grid kalman.lambda=0.01 --seed 3"
+      " --pops off";
   const auto r = test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
                                "'" + common + " --threads 2 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -155,6 +156,38 @@ TEST(EvalCommand, WritesTheReportWithTheExpectedStructure) {
   a.erase("threads");
   b.erase("threads");
   EXPECT_EQ(a, b);
+}
+
+TEST(EvalCommand, PopStageRowsRunAfterThePopRepairAndBeatThePlainFiltersOnPops) {
+  test::TempDir in("eval-pops-in"), out("eval-pops-out");
+  write_short_clips(in.path());
+  const auto r =
+      test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
+                    "' --noise impulse --noise gaussian:0.01 --methods bof,nlpm-robust,auto"
+                    " --grid bof.sigma_g=0.1 --grid bof.sigma_t=1 --grid "
+                    "nlpm-robust.range_factor=5 --no-plots --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(test::read_text(out / "report.json"));
+  std::vector<std::string> labels;
+  for (const auto& m : report["methods"]) labels.push_back(m["method"]);
+  EXPECT_EQ(labels, (std::vector<std::string>{"bof", "nlpm-robust", "bof+pops", "nlpm-robust+pops",
+                                              "auto"}));
+  // Pops found on the impulse condition (the demo clips are 120 and 30 fps), none on jitter.
+  std::size_t found[2] = {0, 0};
+  for (std::size_t c = 0; c < 2; ++c)
+    for (const auto& clip : report["conditions"][c]["noisy_per_clip"])
+      found[c] += clip["pops_found"].get<std::size_t>();
+  EXPECT_GT(found[0], 10u);
+  EXPECT_EQ(found[1], 0u);
+  // On pops, the automatic bof after the pop stage beats the plain automatic bof (which does not
+  // see pops at all) by a wide margin; on jitter alone the stage changes nothing.
+  auto automatic_psnr = [&](std::size_t m, std::size_t c) {
+    return report["methods"][m]["automatic"]["results"][c]["psnr_db"].get<double>();
+  };
+  EXPECT_GT(automatic_psnr(2, 0), automatic_psnr(0, 0) + 3.0);
+  EXPECT_DOUBLE_EQ(automatic_psnr(2, 1), automatic_psnr(0, 1));
+  const double noisy_pops = report["conditions"][0]["noisy"]["psnr_db"];
+  EXPECT_GT(automatic_psnr(4, 0), noisy_pops + 3.0);
 }
 
 TEST(EvalCommand, UsageErrorsSayWhy) {

@@ -38,8 +38,27 @@ bool is_library_file(const std::string& argument) {
 }
 
 // Reads every clip of `source`, naming failures on stderr.
-void read_all(ClipSource& source, const EvalConfig& config, std::vector<EvalClip>& clips,
-              std::size_t* failed) {
+// Every step-th frame of `clip` (frame time x step): the same motion at a lower frame rate.
+io::Clip decimate(io::Clip clip, int step) {
+  if (step <= 1) return clip;
+  const std::size_t J = std::size_t(clip.joints());
+  const int frames = (clip.frames + step - 1) / step;
+  for (int t = 0; t < frames; ++t) {
+    const std::size_t from = std::size_t(t) * std::size_t(step) * J, to = std::size_t(t) * J;
+    std::copy_n(clip.rotations.begin() + std::ptrdiff_t(4 * from), 4 * J,
+                clip.rotations.begin() + std::ptrdiff_t(4 * to));
+    std::copy_n(clip.translations.begin() + std::ptrdiff_t(3 * from), 3 * J,
+                clip.translations.begin() + std::ptrdiff_t(3 * to));
+  }
+  clip.frames = frames;
+  clip.frame_time *= step;
+  clip.rotations.resize(std::size_t(frames) * J * 4);
+  clip.translations.resize(std::size_t(frames) * J * 3);
+  return clip;
+}
+
+void read_all(ClipSource& source, const EvalConfig& config, int frame_step,
+              std::vector<EvalClip>& clips, std::size_t* failed) {
   for (std::size_t i = 0; i < source.count(); ++i) {
     std::string error;
     std::optional<io::Clip> clip = source.read(i, &error);
@@ -48,7 +67,8 @@ void read_all(ClipSource& source, const EvalConfig& config, std::vector<EvalClip
       ++*failed;
       continue;
     }
-    clips.push_back(prepare_clip(source.clip_path(i), std::move(*clip), config));
+    clips.push_back(
+        prepare_clip(source.clip_path(i), decimate(std::move(*clip), frame_step), config));
   }
 }
 
@@ -66,11 +86,13 @@ std::string canonical_command(const EvalCommand& c, const EvalConfig& config) {
   s += " -o " + quote(c.output_dir);
   for (const auto& n : c.noise) s += " --noise " + quote(n);
   s += " --methods " + c.methods;
+  s += " --pops " + c.pops;
   for (const auto& g : c.grid) s += " --grid " + quote(g);
   s += fmt::format(" --seed {}", config.seed);
   if (c.unit_cm > 0) s += fmt::format(" --unit-cm {:g}", c.unit_cm);
   if (!c.split_impossible) s += " --no-split-impossible";
   if (c.split_max_speed != 150) s += fmt::format(" --split-max-speed {:g}", c.split_max_speed);
+  if (c.frame_step > 1) s += fmt::format(" --frame-step {}", c.frame_step);
   if (!c.plots) s += " --no-plots";
   return s;
 }
@@ -90,14 +112,23 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
                   "MAX]]\n(default: gaussian:0.008,0.03,0.12 and impulse)")
       ->group("Evaluation");
   cmd->add_option("--methods", command.methods,
-                  "comma-separated: bof, nlpm, gaussian, butterworth, moving-mean, kalman")
+                  "comma-separated: bof, nlpm, gaussian, butterworth, moving-mean, kalman,\n"
+                  "nlpm-robust (nlpm with the per-joint range term), auto (--method auto)")
+      ->capture_default_str()
+      ->group("Evaluation");
+  cmd->add_option("--pops", command.pops,
+                  "off: each method is the spec's filter on the noisy clip; on: after the "
+                  "engine's default pop stage, --pops auto (rows METHOD+pops; garbage joints "
+                  "kept); both")
+      ->check(CLI::IsMember({"off", "on", "both"}))
       ->capture_default_str()
       ->group("Evaluation");
   cmd->add_option(
          "--grid", command.grid,
          "replace one axis of a method's grid, repeatable: METHOD.PARAM=v1,v2,...\n"
          "bof: sigma_g|sigma_g_factor (+sigma_g_floor), sigma_t|sigma_t_factor, iterations;\n"
-         "nlpm: h|h_factor, K, P; gaussian: sigma_t; butterworth: cutoff, order;\n"
+         "nlpm: h|h_factor, K, P; nlpm-robust: h|h_factor, range_factor, K, P;\n"
+         "gaussian: sigma_t; butterworth: cutoff, order;\n"
          "moving-mean: passes; kalman: lambda|lambda_scale (factors: x sigma_hat)")
       ->group("Evaluation");
   cmd->add_option("--seed", command.seed, "noise seed (per clip and condition from it)")
@@ -113,6 +144,11 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->group("Evaluation");
   cmd->add_option("--split-max-speed", command.split_max_speed,
                   "a joint turning faster than this (rad/s) in one step is impossible")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->group("Evaluation");
+  cmd->add_option("--frame-step", command.frame_step,
+                  "keep every N-th frame of each clip (4: 120 fps clips become 30 fps)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str()
       ->group("Evaluation");
@@ -160,7 +196,9 @@ int run_eval(const EvalCommand& command) {
                          " is not in --methods");
     overrides.push_back(*g);
   }
-  config.grids = build_grids(methods, overrides);
+  config.grids = build_grids(methods, overrides, command.pops != "on", command.pops != "off");
+  config.repaired = std::any_of(config.grids.begin(), config.grids.end(),
+                                [](const MethodGrid& g) { return g.repaired; });
 
   std::optional<tbb::global_control> limit;
   if (command.run.threads > 0)
@@ -179,14 +217,14 @@ int run_eval(const EvalCommand& command) {
     }
     auto library = LibrarySource::open(src, &error);
     if (!library) return usage_error(error);
-    read_all(*library, config, clips, &failed);
+    read_all(*library, config, command.frame_step, clips, &failed);
   }
   if (!bvh_arguments.empty()) {
     const SourceList list = collect_bvh_sources(bvh_arguments);
     for (const auto& e : list.errors) fmt::print(stderr, "mocap-clean: eval: {}\n", e);
     if (!list.errors.empty()) return 2;
     BvhSource bvh(list.files);
-    read_all(bvh, config, clips, &failed);
+    read_all(bvh, config, command.frame_step, clips, &failed);
   }
   if (clips.empty()) return usage_error("no clip could be read from the given sources");
 
@@ -208,9 +246,8 @@ int run_eval(const EvalCommand& command) {
       for (const auto& condition : point)
         for (std::size_t k = 0; k < condition.size(); ++k)
           if (!condition[k].error.empty())
-            fmt::print(stderr, "mocap-clean: eval: {} on {}: {}\n",
-                       to_string(config.grids[m].method), results.clips[k].name,
-                       condition[k].error);
+            fmt::print(stderr, "mocap-clean: eval: {} on {}: {}\n", label(config.grids[m]),
+                       results.clips[k].name, condition[k].error);
 
   std::vector<Figure> figures;
   if (command.plots && !write_figures(results, config, dir, &figures, &error))

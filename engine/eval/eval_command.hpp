@@ -15,13 +15,15 @@ struct EvalCommand {
   std::vector<std::string> sources;  // BVH files, folders, or library files (.h5)
   std::string output_dir;
   std::vector<std::string> noise;  // --noise specs; empty = the defaults
-  std::string methods = "bof,nlpm,gaussian,butterworth,moving-mean,kalman";
+  std::string methods = "bof,nlpm,gaussian,butterworth,moving-mean,kalman,nlpm-robust,auto";
+  std::string pops = "both";      // off: the spec filters; on: after the pop stage; both
   std::vector<std::string> grid;  // --grid METHOD.PARAM=v1,v2
   unsigned long long seed = 1;
   double unit_cm = 0;  // 0 = guess per clip
   bool split_impossible = true;
   double split_max_speed = 150;
   bool plots = true;
+  int frame_step = 1;  // --frame-step: every N-th frame (a lower frame rate)
   RunOptions run;
   std::string command_line;  // as typed, for the report
 };

@@ -49,12 +49,20 @@ std::string automatic_rule(EvalMethod method) {
       return "passes=5 (spec default)";
     case EvalMethod::kalman:
       return fmt::format("lambda={:g}*(120*frame_time)^2.5/sigma_hat^3", kKalmanAutoScale);
+    case EvalMethod::nlpm_robust:
+      return fmt::format("h={:g}*sigma_hat range_sigma={:g}*sigma_hat K=10 P=5", kNlpmAutoFactor,
+                         kNlpmAutoRangeFactor);
+    case EvalMethod::automatic:
+      return "--method auto: the method and parameters chosen per clip (choose_automatic), after "
+             "pop repair";
   }
   return "";
 }
 
-Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
-                      nlohmann::json* resolved) {
+namespace {
+
+Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
+                  nlohmann::json* resolved) {
   nlohmann::json used = nlohmann::json::object();
   auto done = [&](Status s) {
     if (resolved) *resolved = used;
@@ -109,7 +117,33 @@ Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJ
         p.h = value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
       }
       used = {{"h", p.h}, {"K", p.search_radius}, {"P", p.patch_radius}};
-      return done(NlpmJob{p, io, {}}.run());
+      return done(NlpmJob{p, io, job.distance_joints}.run());
+    }
+    case EvalMethod::nlpm_robust: {
+      NlpmParams p;
+      p.search_radius = int(value(point, "K", p.search_radius));
+      p.patch_radius = int(value(point, "P", p.patch_radius));
+      if (!(sigma_hat > 0)) break;
+      p.h = has(point, "h") ? value(point, "h", 0)
+                            : value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
+      p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
+      used = {{"h", p.h},
+              {"range_sigma", p.range_sigma},
+              {"K", p.search_radius},
+              {"P", p.patch_radius}};
+      return done(NlpmJob{p, io, job.distance_joints}.run());
+    }
+    case EvalMethod::automatic: {
+      if (!(sigma_hat > 0)) break;
+      const FilterSettings chosen = choose_automatic(FilterSettings{}, sigma_hat, job.frame_time);
+      const EvalMethod as =
+          chosen.method == Method::nlpm
+              ? (chosen.nlpm_range != 0 ? EvalMethod::nlpm_robust : EvalMethod::nlpm)
+          : chosen.method == Method::kalman ? EvalMethod::kalman
+                                            : EvalMethod::bof;
+      const Status s = run_method(as, nullptr, job, &used);
+      used["method"] = std::string(to_string(as));
+      return done(s);
     }
     case EvalMethod::gaussian:
     case EvalMethod::butterworth:
@@ -144,6 +178,21 @@ Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJ
   copy(job);
   used["unchanged"] = true;
   return done({});
+}
+
+}  // namespace
+
+Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
+                      nlohmann::json* resolved) {
+  const Status s = run_method(method, point, job, resolved);
+  // Garbage joints as they came, as the engine keeps them (run_shard).
+  for (std::size_t j = 0; s && j < job.kept_joints.size(); ++j) {
+    if (!job.kept_joints[j]) continue;
+    for (int t = 0; t < job.noisy.frames; ++t)
+      std::memcpy(job.output.data + (std::size_t(t) * std::size_t(job.noisy.joints) + j) * 4,
+                  job.noisy.at(t, int(j)), 4 * sizeof(float));
+  }
+  return s;
 }
 
 }  // namespace mocap::engine::eval

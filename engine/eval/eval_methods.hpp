@@ -10,6 +10,9 @@
 // the position metrics measure what the rotation filter did.
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
+#include <span>
+
 #include "engine/eval/eval_spec.hpp"
 #include "kernels/status.hpp"
 #include "kernels/tensor.hpp"
@@ -21,6 +24,9 @@ struct SegmentJob {
   RotationSpan output;  // same shape
   double frame_time = 1.0 / 120;
   double sigma_hat = 0;  // the segment's estimated noise (spec "Noise level estimate")
+  // Optional, one entry per joint: joints copied as they came (garbage), and the joints nlpm's
+  // pose distance looks at (empty: all).
+  std::span<const std::uint8_t> kept_joints, distance_joints;
 };
 
 // Filters `job` with `method` at `point`, or automatically when point is null. A segment of one

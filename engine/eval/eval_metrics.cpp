@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 
+#include "kernels/joint_quality.hpp"
 #include "kernels/metrics.hpp"
 #include "kernels/quaternion.hpp"
 
@@ -116,6 +117,8 @@ ClipGeometry describe_clip(const io::Clip& clean, double unit_cm,
   g.offsets = skeleton.offsets;
   for (int j = 0; j < skeleton.joint_count(); ++j)
     g.translated.push_back(skeleton.has_translation(j) ? 1 : 0);
+  for (const JointQuality& q : classify_joints(clean.rotation_view()))
+    g.garbage.push_back(is_garbage(q.joint_class) ? 1 : 0);
   g.effectors = effectors_by_name(skeleton);
   if (g.effectors.empty()) {
     // Chain ends: every joint without children, at its End Site when it has one.
@@ -178,6 +181,7 @@ void Score::add(const Score& o) {
   foot_steps += o.foot_steps;
   speed_sq += o.speed_sq;
   speed_n += o.speed_n;
+  max_error = std::max(max_error, o.max_error);
 }
 
 namespace {
@@ -251,6 +255,8 @@ Score score_clip(const io::Clip& clean, const ClipGeometry& geometry,
         const double d = geodesic(load_quat(result.at(t, j)), load_quat(truth.at(t, j)));
         s.rotation_sq += d * d;
         s.rotation_n += 1;
+        if (geometry.garbage.empty() || !geometry.garbage[std::size_t(j)])
+          s.max_error = std::max(s.max_error, d);
       }
   }
   for (int j = 0; j < joints && frames > 1; ++j) {

@@ -51,6 +51,9 @@ struct ClipGeometry {
   bool by_name = true;           // false: chain ends
   double unit_cm = 1;
   bool unit_guessed = true;
+  // Joints that are not motion in the clean clip (kernels/joint_quality.hpp): left out of the
+  // worst-error score.
+  std::vector<std::uint8_t> garbage;
   double hip_height_units = 0;
 };
 
@@ -67,6 +70,7 @@ struct Score {
   double skate_steps = 0, foot_steps = 0;
   double speed_sq = 0;  // (rad/s)^2
   double speed_n = 0;
+  double max_error = 0;  // rad: the largest rotation error of any joint that is not garbage
 
   void add(const Score& other);
   double rmse() const;             // rad

@@ -18,11 +18,11 @@
 namespace mocap::engine::eval {
 namespace {
 
-constexpr const char* kMethodColors[] = {"#1f77b4", "#d62728", "#2ca02c",
-                                         "#ff7f0e", "#9467bd", "#8c564b"};
+constexpr const char* kMethodColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
+                                         "#9467bd", "#8c564b", "#e377c2", "#17becf"};
 
 std::string method_color(EvalMethod m) {
-  return kMethodColors[int(m) % 6];
+  return kMethodColors[int(m) % 8];
 }
 
 // The gaussian condition nearest 0.03 rad (log distance), else -1.
@@ -43,7 +43,7 @@ int figure_condition(const EvalConfig& config) {
 
 int method_index(const EvalConfig& config, EvalMethod method) {
   for (std::size_t m = 0; m < config.grids.size(); ++m)
-    if (config.grids[m].method == method) return int(m);
+    if (config.grids[m].method == method && !config.grids[m].repaired) return int(m);
   return -1;
 }
 
@@ -123,7 +123,8 @@ bool curve_figures(const EvalResults& r, const EvalConfig& config, int c,
   for (EvalMethod m : {EvalMethod::bof, EvalMethod::nlpm}) {
     if (method_index(config, m) < 0) continue;
     Curve curve{std::string(to_string(m)) + " (automatic)", method_color(m), {}, 1.6};
-    if (Status s = filter_clip(clip, noisy, m, nullptr, curve.rotations, nullptr); !s) continue;
+    if (Status s = filter_clip(clip, noisy, m, false, nullptr, curve.rotations, nullptr); !s)
+      continue;
     curves.push_back(std::move(curve));
   }
   curves.push_back({"clean", "#000000", clip.clean.rotations, 1.4});
@@ -287,10 +288,11 @@ bool psnr_figure(const EvalResults& r, const EvalConfig& config, const std::file
                 {}};
   for (std::size_t m = 0; m < config.grids.size(); ++m) {
     const EvalMethod method = config.grids[m].method;
+    if (config.grids[m].repaired) continue;  // gaussian noise: repair changes next to nothing
     PlotSeries best{
-        std::string(to_string(method)) + " best", {}, {}, method_color(method), false, true, 1.6};
+        label(config.grids[m]) + " best", {}, {}, method_color(method), false, true, 1.6};
     PlotSeries automatic{
-        std::string(to_string(method)) + " auto", {}, {}, method_color(method), true, false, 1.4};
+        label(config.grids[m]) + " auto", {}, {}, method_color(method), true, false, 1.4};
     for (std::size_t c : gaussian) {
       const int b = best_point(r, config, m, c);
       best.x.push_back(config.conditions[c].sigma);

@@ -45,7 +45,7 @@ Table score_table(const EvalResults& r, const EvalConfig& config, const std::str
     t.rows.push_back(row);
   }
   for (std::size_t m = 0; m < config.grids.size(); ++m) {
-    std::vector<std::string> row{std::string(to_string(config.grids[m].method))};
+    std::vector<std::string> row{label(config.grids[m])};
     const std::size_t automatic = config.grids[m].points.size();
     for (std::size_t c = 0; c < config.conditions.size(); ++c) {
       const int best = best_point(r, config, m, c);
@@ -64,7 +64,7 @@ Table best_parameter_table(const EvalResults& r, const EvalConfig& config) {
   t.header.push_back("method");
   for (const NoiseCondition& c : config.conditions) t.header.push_back(c.label());
   for (std::size_t m = 0; m < config.grids.size(); ++m) {
-    std::vector<std::string> row{std::string(to_string(config.grids[m].method))};
+    std::vector<std::string> row{label(config.grids[m])};
     for (std::size_t c = 0; c < config.conditions.size(); ++c) {
       const int best = best_point(r, config, m, c);
       row.push_back(best < 0 ? "n/a" : describe(config.grids[m].points[std::size_t(best)]));
@@ -103,6 +103,11 @@ std::vector<Table> all_tables(const EvalResults& r, const EvalConfig& config) {
       score_table(
           r, config, "Angular speed profile error, RMS rad/s (" + pool + ")",
           [](const Score& s) { return s.speed_rms(); }, 3),
+      score_table(
+          r, config,
+          "Worst rotation error, rad, of any joint that is not garbage in the clean clip (" + pool +
+              ")",
+          [](const Score& s) { return s.max_error; }, 3),
       best_parameter_table(r, config),
   };
 }
@@ -233,6 +238,20 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
     nlohmann::json sigma_hats = nlohmann::json::array();
     for (const NoisyClip& n : r.noisy[c]) sigma_hats.push_back(n.sigma_hats);
     cj["sigma_hat_per_clip_segment"] = sigma_hats;
+    // Per clip: the noisy input's PSNR, and what the pop stage found in it (garbage joints are
+    // the ones classified on the noisy clip, as the engine sees it).
+    nlohmann::json per_clip = nlohmann::json::array();
+    for (std::size_t k = 0; k < r.clips.size(); ++k) {
+      const NoisyClip& n = r.noisy[c][k];
+      nlohmann::json garbage = nlohmann::json::array();
+      for (std::size_t jt = 0; jt < n.garbage.size(); ++jt)
+        if (n.garbage[jt]) garbage.push_back(r.clips[k].clean.skeleton->joint_names[jt]);
+      per_clip.push_back({{"clip", r.clips[k].name},
+                          {"psnr_db", r.noisy_scores[c][k].psnr()},
+                          {"pops_found", n.pops},
+                          {"garbage_joints", garbage}});
+    }
+    cj["noisy_per_clip"] = per_clip;
     conditions.push_back(cj);
   }
   j["conditions"] = conditions;
@@ -240,7 +259,8 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
   nlohmann::json methods = nlohmann::json::array();
   for (std::size_t m = 0; m < config.grids.size(); ++m) {
     const MethodGrid& grid = config.grids[m];
-    nlohmann::json mj{{"method", std::string(to_string(grid.method))},
+    nlohmann::json mj{{"method", label(grid)},
+                      {"repaired", grid.repaired},
                       {"automatic_rule", automatic_rule(grid.method)}};
     nlohmann::json grid_json = nlohmann::json::array();
     for (std::size_t p = 0; p <= grid.points.size(); ++p) {
@@ -320,8 +340,8 @@ std::string html_report(const EvalResults& r, const EvalConfig& config,
   }
   html += "</table>\n<h2>Automatic parameters</h2>\n<ul>\n";
   for (const MethodGrid& g : config.grids)
-    html += fmt::format("<li><b>{}</b>: {}</li>\n", to_string(g.method),
-                        escape_html(automatic_rule(g.method)));
+    html +=
+        fmt::format("<li><b>{}</b>: {}</li>\n", label(g), escape_html(automatic_rule(g.method)));
   html +=
       "</ul>\n<p>Everything, per clip and per grid point: <a href=\"report.json\">report.json</a>; "
       "the tables as markdown: <a href=\"table.md\">table.md</a>.</p>\n</body>\n</html>\n";

@@ -4,11 +4,13 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
 
+#include "engine/clip_conditioning.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
@@ -68,21 +70,38 @@ EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config
   return c;
 }
 
-Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method,
+Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out, nlohmann::json* resolved) {
   const int joints = clip.clean.joints();
-  out.resize(noisy.rotations.size());
+  const std::vector<float>& input = repaired ? noisy.repaired : noisy.rotations;
+  const std::vector<double>& sigma_hats = repaired ? noisy.repaired_sigma_hats : noisy.sigma_hats;
+  // As the engine does (resolve_for_clip): garbage joints kept, the others for the distance.
+  std::vector<std::uint8_t> distance;
+  const bool any_garbage =
+      repaired && std::find(noisy.garbage.begin(), noisy.garbage.end(), 1) != noisy.garbage.end();
+  if (any_garbage)
+    for (std::uint8_t g : noisy.garbage) distance.push_back(g ? 0 : 1);
+  if (std::find(distance.begin(), distance.end(), 1) == distance.end()) distance.clear();
+  out.resize(input.size());
   if (resolved) *resolved = nlohmann::json::array();
   for (std::size_t s = 0; s < clip.segments.size(); ++s) {
     const Segment& seg = clip.segments[s];
-    SegmentJob job{segment_view(noisy.rotations, joints, seg), segment_span(out, joints, seg),
-                   clip.clean.frame_time, noisy.sigma_hats[s]};
+    SegmentJob job{segment_view(input, joints, seg),
+                   segment_span(out, joints, seg),
+                   clip.clean.frame_time,
+                   sigma_hats[s],
+                   {},
+                   {}};
+    if (any_garbage) {
+      job.kept_joints = noisy.garbage;
+      job.distance_joints = distance;
+    }
     nlohmann::json used;
     if (Status st = filter_segment(method, point, job, resolved ? &used : nullptr); !st)
       return Status::error(fmt::format("frames {}-{}: {}", seg.begin, seg.end, st.message()));
     if (resolved && seg.frames() >= 2) {
       used["frames"] = {seg.begin, seg.end};
-      used["sigma_hat"] = noisy.sigma_hats[s];
+      used["sigma_hat"] = sigma_hats[s];
       resolved->push_back(used);
     }
   }
@@ -110,6 +129,18 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       for (const Segment& s : clip.segments)
         noisy.sigma_hats.push_back(
             estimate_noise(segment_view(noisy.rotations, clip.clean.joints(), s)).sigma);
+      if (config.repaired) {
+        noisy.repaired = noisy.rotations;
+        const ClipConditioning cond = condition_rotations(
+            PopsMode::automatic, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
+            clip.clean.frame_time);
+        noisy.garbage = cond.garbage;
+        noisy.pops = cond.pop_count();
+        for (const Segment& s : clip.segments)
+          noisy.repaired_sigma_hats.push_back(
+              estimate_noise(segment_view(noisy.repaired, clip.clean.joints(), s), noisy.garbage)
+                  .sigma);
+      }
       r.noisy_scores[c][k] =
           score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
                      {noisy.rotations.data(), clip.clean.frames, clip.clean.joints()});
@@ -142,7 +173,7 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       const ParamPoint* point = t.p < grid.points.size() ? &grid.points[t.p] : nullptr;
       const EvalClip& clip = r.clips[t.k];
       TaskResult& result = r.results[t.m][t.p][t.c][t.k];
-      const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, point, out,
+      const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
                                    point ? nullptr : &result.resolved);
       if (!s) {
         result.error = s.message();

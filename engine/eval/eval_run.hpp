@@ -24,6 +24,7 @@ struct EvalConfig {
   double unit_cm = 0;  // 0 = guess per clip
   bool split_impossible = true;
   MotionSplitParams split;
+  bool repaired = false;  // some grid runs on the conditioned clips: prepare them
 };
 
 // One clean clip and what eval derives from it once.
@@ -40,6 +41,12 @@ struct EvalClip {
 struct NoisyClip {
   std::vector<float> rotations;    // [F][J][4]
   std::vector<double> sigma_hats;  // per segment
+  // The same after the engine's conditioning (engine/clip_conditioning.hpp: pop repair, garbage
+  // joints found on the noisy clip), and its noise estimates (garbage joints left out).
+  std::vector<float> repaired;
+  std::vector<double> repaired_sigma_hats;
+  std::vector<std::uint8_t> garbage;
+  std::size_t pops = 0;  // samples the repair replaced
 };
 
 struct TaskResult {
@@ -83,7 +90,9 @@ int best_point(const EvalResults& results, const EvalConfig& config, std::size_t
 
 // Filters every segment of noisy clip (clip, condition) with a method into `out` (sized like the
 // clip); the one place where the segments are applied. `resolved` may be null.
-Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method,
+// With `repaired`, on the conditioned clip: garbage joints are copied as they came and stay out
+// of nlpm's pose distance.
+Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out, nlohmann::json* resolved);
 
 }  // namespace mocap::engine::eval

@@ -65,8 +65,17 @@ std::string_view to_string(EvalMethod method) {
       return "moving-mean";
     case EvalMethod::kalman:
       return "kalman";
+    case EvalMethod::nlpm_robust:
+      return "nlpm-robust";
+    case EvalMethod::automatic:
+      return "auto";
   }
   return "?";
+}
+
+std::string label(const MethodGrid& grid) {
+  std::string name(to_string(grid.method));
+  return grid.repaired && grid.method != EvalMethod::automatic ? name + "+pops" : name;
 }
 
 std::string NoiseCondition::label() const {
@@ -151,6 +160,10 @@ std::vector<std::string> method_parameters(EvalMethod method) {
       return {"passes"};
     case EvalMethod::kalman:
       return {"lambda", "lambda_scale"};
+    case EvalMethod::nlpm_robust:
+      return {"h", "h_factor", "range_factor", "K", "P"};
+    case EvalMethod::automatic:
+      return {};
   }
   return {};
 }
@@ -171,6 +184,10 @@ std::vector<GridAxis> default_axes(EvalMethod method) {
       return {{"passes", {1, 2, 5, 10, 20}}};
     case EvalMethod::kalman:
       return {{"lambda", {1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1}}};
+    case EvalMethod::nlpm_robust:  // relative to the noise: h = 1.2 sigma_hat, as nlpm's rule
+      return {{"range_factor", {1.5, 2, 3, 5, 8}}};
+    case EvalMethod::automatic:
+      return {};  // no grid: the automatic choice only
   }
   return {};
 }
@@ -205,31 +222,36 @@ std::optional<GridOverride> parse_grid_override(std::string_view spec, std::stri
 }
 
 std::vector<MethodGrid> build_grids(const std::vector<EvalMethod>& methods,
-                                    const std::vector<GridOverride>& overrides) {
+                                    const std::vector<GridOverride>& overrides, bool with_plain,
+                                    bool with_repaired) {
   std::vector<MethodGrid> grids;
-  for (EvalMethod method : methods) {
-    std::vector<GridAxis> axes = default_axes(method);
-    for (const GridOverride& o : overrides) {
-      if (o.method != method) continue;
-      const std::string_view other = alternative(o.axis.parameter);
-      std::erase_if(axes, [&](const GridAxis& a) {
-        return a.parameter == o.axis.parameter || (!other.empty() && a.parameter == other);
-      });
-      axes.push_back(o.axis);
+  for (const bool repaired : {false, true})
+    for (EvalMethod method : methods) {
+      if (method == EvalMethod::automatic ? !repaired : repaired ? !with_repaired : !with_plain)
+        continue;
+      std::vector<GridAxis> axes = default_axes(method);
+      for (const GridOverride& o : overrides) {
+        if (o.method != method) continue;
+        const std::string_view other = alternative(o.axis.parameter);
+        std::erase_if(axes, [&](const GridAxis& a) {
+          return a.parameter == o.axis.parameter || (!other.empty() && a.parameter == other);
+        });
+        axes.push_back(o.axis);
+      }
+      MethodGrid grid{method, {ParamPoint{}}, repaired};
+      for (const GridAxis& axis : axes) {
+        std::vector<ParamPoint> next;
+        for (const ParamPoint& p : grid.points)
+          for (double v : axis.values) {
+            ParamPoint q = p;
+            q.emplace_back(axis.parameter, v);
+            next.push_back(std::move(q));
+          }
+        grid.points = std::move(next);
+      }
+      if (axes.empty()) grid.points.clear();  // no grid: the automatic parameters only
+      grids.push_back(std::move(grid));
     }
-    MethodGrid grid{method, {ParamPoint{}}};
-    for (const GridAxis& axis : axes) {
-      std::vector<ParamPoint> next;
-      for (const ParamPoint& p : grid.points)
-        for (double v : axis.values) {
-          ParamPoint q = p;
-          q.emplace_back(axis.parameter, v);
-          next.push_back(std::move(q));
-        }
-      grid.points = std::move(next);
-    }
-    grids.push_back(std::move(grid));
-  }
   return grids;
 }
 

@@ -11,14 +11,25 @@
 
 namespace mocap::engine::eval {
 
-enum class EvalMethod { bof, nlpm, gaussian, butterworth, moving_mean, kalman };
+// nlpm_robust: nlpm with the per-joint range term (NlpmParams::range_sigma); automatic: what
+// `--method auto` chooses per clip (engine/filter_settings.hpp, choose_automatic).
+enum class EvalMethod {
+  bof,
+  nlpm,
+  gaussian,
+  butterworth,
+  moving_mean,
+  kalman,
+  nlpm_robust,
+  automatic
+};
 
-// "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman".
+// "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "nlpm-robust", "auto".
 std::optional<EvalMethod> parse_eval_method(std::string_view name);
 std::string_view to_string(EvalMethod method);
-inline constexpr EvalMethod kAllEvalMethods[] = {EvalMethod::bof,         EvalMethod::nlpm,
-                                                 EvalMethod::gaussian,    EvalMethod::butterworth,
-                                                 EvalMethod::moving_mean, EvalMethod::kalman};
+inline constexpr EvalMethod kAllEvalMethods[] = {
+    EvalMethod::bof,         EvalMethod::nlpm,   EvalMethod::gaussian,    EvalMethod::butterworth,
+    EvalMethod::moving_mean, EvalMethod::kalman, EvalMethod::nlpm_robust, EvalMethod::automatic};
 
 struct NoiseCondition {
   enum class Model { gaussian, impulse } model = Model::gaussian;
@@ -65,8 +76,17 @@ std::optional<GridOverride> parse_grid_override(std::string_view spec, std::stri
 struct MethodGrid {
   EvalMethod method = EvalMethod::bof;
   std::vector<ParamPoint> points;  // the cartesian product of the axes
+  // Run after the engine's default pop stage (--pops auto), with garbage joints kept as they
+  // came and out of nlpm's
+  // distance (what `clean` does by default); false: the spec's filter on the noisy clip.
+  bool repaired = false;
 };
+// One grid per method and pops mode: with_plain, the spec's filter; with_repaired, the same after
+// pop repair. `auto` runs repaired only (that is its definition).
 std::vector<MethodGrid> build_grids(const std::vector<EvalMethod>& methods,
-                                    const std::vector<GridOverride>& overrides);
+                                    const std::vector<GridOverride>& overrides,
+                                    bool with_plain = true, bool with_repaired = false);
+// "bof", or "bof+pops" for a grid after the pop stage.
+std::string label(const MethodGrid& grid);
 
 }  // namespace mocap::engine::eval
