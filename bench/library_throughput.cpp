@@ -1,7 +1,7 @@
 // mocap-library-bench: the end-to-end driver. Generates a synthetic library of a given size
 // (random smooth motions with noise, fixed seed), then runs `mocap-clean filter` on it for each
-// method x compression x thread count as a child process and prints one JSON line per run:
-// {"method", "compression", "threads", "clips", "joint_frames", "seconds",
+// method x pop stage x compression x thread count as a child process and prints one JSON line per run:
+// {"method", "pops", "compression", "threads", "clips", "joint_frames", "seconds",
 //  "joint_frames_per_second", "peak_rss_mb"} (wall time and peak RSS of the child).
 #include <fcntl.h>
 #include <fmt/core.h>
@@ -113,6 +113,7 @@ int main(int argc, char** argv) {
       "mocap-library-bench: end-to-end `mocap-clean filter` throughput on a synthetic library"};
   int clips = 200, frames = 1000, joints = 31, repeat = 3;
   std::string methods = "bof,nlpm,gaussian", compressions = "none,lz4,deflate", threads = "1,2";
+  std::string pops = "off";
   std::string cli = (fs::path(argv[0]).parent_path() / ".." / "engine" / "mocap-clean").string();
   std::string workdir = (fs::temp_directory_path() / "mocap-library-bench").string();
   app.add_option("--clips", clips, "clips in the synthetic library")->capture_default_str();
@@ -122,6 +123,9 @@ int main(int argc, char** argv) {
   app.add_option("--compression", compressions, "comma-separated output compressions")
       ->capture_default_str();
   app.add_option("--threads", threads, "comma-separated thread counts")->capture_default_str();
+  app.add_option("--pops", pops,
+                 "comma-separated pop stages (off: the filter alone; auto: clean's default)")
+      ->capture_default_str();
   app.add_option("--repeat", repeat, "runs per configuration (the median is printed)")
       ->capture_default_str();
   app.add_option("--cli", cli, "the mocap-clean executable")->capture_default_str();
@@ -149,39 +153,42 @@ int main(int argc, char** argv) {
   }
   const double joint_frames = double(clips) * frames * joints;
   for (const std::string& method : split_list(methods)) {
-    for (const std::string& compression : split_list(compressions)) {
-      for (const std::string& t : split_list(threads)) {
-        std::vector<ChildResult> runs;
-        for (int r = 0; r < repeat; ++r) {
-          const fs::path out = fs::path(workdir) / "out.h5";
-          fs::remove(out);
-          fs::remove_all(out.string() + ".parts");
-          std::vector<std::string> args = {
-              cli,        "filter",       library.string(), "-o",        out.string(),
-              "--method", method,         "--compression",  compression, "--threads",
-              t,          "--no-progress"};
-          if (method == "nlpm") args.insert(args.end(), {"--h", "0.03"});
-          runs.push_back(run_child(args));
-          if (runs.back().exit_code != 0) {
-            fmt::print(stderr, "mocap-library-bench: {} failed with exit status {}\n", method,
-                       runs.back().exit_code);
-            return 1;
+    for (const std::string& pop_stage : split_list(pops)) {
+      for (const std::string& compression : split_list(compressions)) {
+        for (const std::string& t : split_list(threads)) {
+          std::vector<ChildResult> runs;
+          for (int r = 0; r < repeat; ++r) {
+            const fs::path out = fs::path(workdir) / "out.h5";
+            fs::remove(out);
+            fs::remove_all(out.string() + ".parts");
+            std::vector<std::string> args = {
+                cli,        "filter",        library.string(), "-o",        out.string(),
+                "--method", method,          "--compression",  compression, "--threads",
+                t,          "--no-progress", "--pops",         pop_stage};
+            if (method == "nlpm") args.insert(args.end(), {"--h", "0.03"});
+            runs.push_back(run_child(args));
+            if (runs.back().exit_code != 0) {
+              fmt::print(stderr, "mocap-library-bench: {} failed with exit status {}\n", method,
+                         runs.back().exit_code);
+              return 1;
+            }
           }
+          std::sort(runs.begin(), runs.end(),
+                    [](const auto& a, const auto& b) { return a.seconds < b.seconds; });
+          const ChildResult& median = runs[runs.size() / 2];
+          nlohmann::json line = {{"method", method},
+                                 {"pops", pop_stage},
+                                 {"compression", compression},
+                                 {"threads", std::stoi(t)},
+                                 {"clips", clips},
+                                 {"joint_frames", joint_frames},
+                                 {"seconds", median.seconds},
+                                 {"joint_frames_per_second", joint_frames / median.seconds},
+                                 {"peak_rss_mb", median.peak_rss_mb},
+                                 {"runs", repeat}};
+          fmt::print("{}\n", line.dump());
+          std::fflush(stdout);
         }
-        std::sort(runs.begin(), runs.end(),
-                  [](const auto& a, const auto& b) { return a.seconds < b.seconds; });
-        const ChildResult& median = runs[runs.size() / 2];
-        nlohmann::json line = {{"method", method},
-                               {"compression", compression},
-                               {"threads", std::stoi(t)},
-                               {"clips", clips},
-                               {"joint_frames", joint_frames},
-                               {"seconds", median.seconds},
-                               {"joint_frames_per_second", joint_frames / median.seconds},
-                               {"peak_rss_mb", median.peak_rss_mb},
-                               {"runs", repeat}};
-        fmt::print("{}\n", line.dump());
-        std::fflush(stdout);
       }
     }
   }

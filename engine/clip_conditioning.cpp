@@ -87,7 +87,9 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
 }
 
 ClipConditioning condition_clip(const FilterSettings& settings, io::Clip& clip) {
-  if (settings.method == Method::none) return {};  // a copy, nothing else
+  // none is a copy; pops off is the spec's filter alone, at no extra cost (not even the joint
+  // classification, which costs about a geodesic per sample).
+  if (settings.method == Method::none || settings.pops == PopsMode::off) return {};
   return condition_rotations(settings.pops, clip.rotation_span(), clip.frame_time);
 }
 
@@ -113,6 +115,10 @@ void ConditioningTally::add(const std::string& clip, const io::Clip& data,
 }
 
 void ConditioningTally::write_to(nlohmann::json& summary) const {
+  if (mode == PopsMode::off) {  // nothing was looked at
+    summary["pops"] = {{"mode", "off"}};
+    return;
+  }
   summary["pops"] = {{"mode", std::string(to_string(mode))},
                      {"samples", pops},
                      {"repaired", repaired},
@@ -121,13 +127,12 @@ void ConditioningTally::write_to(nlohmann::json& summary) const {
   summary["garbage_joints"] = {
       {"joints", garbage_joints},
       {"clips", clips_with_garbage},
-      {"handling",
-       mode != PopsMode::off && keep_garbage ? "kept as they came" : "filtered like the others"},
+      {"handling", keep_garbage ? "kept as they came" : "filtered like the others"},
       {"by_clip", garbage}};
 }
 
 std::string describe_conditioning(const nlohmann::json& summary) {
-  if (!summary.contains("pops") || !summary.contains("garbage_joints")) return "";
+  if (!summary.contains("pops") || !summary.contains("garbage_joints")) return "";  // pops off
   const auto& p = summary["pops"];
   const auto& g = summary["garbage_joints"];
   const std::string mode = p["mode"].get<std::string>();

@@ -31,7 +31,8 @@ struct ClipConditioning {
 // synthetic T-pose frame 0 of CMU conversions is a frame of its own, not a pop.
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time);
 
-// condition_rotations on the clip, but nothing at all for method none (a copy).
+// condition_rotations on the clip, but nothing at all for method none (a copy) or pops off (the
+// spec's filter alone: no garbage joints are reported either).
 ClipConditioning condition_clip(const FilterSettings& settings, io::Clip& clip);
 
 // Over a run: pops per joint name, and the garbage joints of each clip.

@@ -105,7 +105,7 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "before the filter: repair pops (samples that jump away and come back) by "
                  "slerp; detect: only count them; auto: repair at 60 fps and more, only count "
                  "below (a 30 fps limb moves too fast to tell); off: the spec's filter exactly "
-                 "(garbage joints then filtered like the others)")
+                 "(garbage joints neither looked for nor kept)")
       ->check(CLI::IsMember({"auto", "repair", "detect", "off"}))
       ->capture_default_str()
       ->group("Cleaning");
