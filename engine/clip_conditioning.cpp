@@ -20,16 +20,14 @@ std::size_t ClipConditioning::pop_count() const {
   return std::accumulate(pops.begin(), pops.end(), std::size_t(0));
 }
 
-namespace {
-
 // Frames [begin, end) between steps that no joint can make, over the joints that are not garbage.
 std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
-                                     const std::vector<std::uint8_t>& garbage) {
+                                     std::span<const std::uint8_t> skip) {
   const double limit = MotionSplitParams{}.step_threshold(frame_time);
   std::vector<ImpossibleStep> steps;
   for (int t = 0; t + 1 < rotations.frames; ++t)
     for (int j = 0; j < rotations.joints; ++j) {
-      if (garbage[std::size_t(j)]) continue;
+      if (!skip.empty() && skip[std::size_t(j)]) continue;
       const double angle =
           geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
       if (angle > limit) {
@@ -39,8 +37,6 @@ std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
     }
   return split_segments(rotations.frames, steps);
 }
-
-}  // namespace
 
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time) {
   ClipConditioning c;

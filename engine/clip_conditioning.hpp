@@ -25,6 +25,12 @@ struct ClipConditioning {
   std::size_t pop_count() const;
 };
 
+// Frames [begin, end) between steps that no joint can make (kernels/motion_split.hpp), over the
+// joints that `skip` (empty, or one entry per joint) does not mark: flipping joints make such
+// steps all the time without being motion.
+std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
+                                     std::span<const std::uint8_t> skip);
+
 // Classifies the joints of `rotations` and finds (detect) or repairs (repair, in place) its pops
 // on every joint but the flipping ones. The pop test runs between impossible steps (a jump no joint
 // can make, kernels/motion_split.hpp, measured on the joints that are not garbage): the

@@ -116,6 +116,11 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"keep", "filter"}))
       ->capture_default_str()
       ->group("Cleaning");
+  cmd.add_flag("--split-impossible", split_impossible,
+               "filter separately the segments between physically impossible steps (a joint "
+               "turning faster than min(150 rad/s x frame time, 2 rad) in one step, e.g. CMU's "
+               "synthetic T-pose frame 0), so no filter smears such a jump (eval: on by default)")
+      ->group("Cleaning");
   cmd.add_option("--translations", translations, "filter the position channels too, or keep them")
       ->check(CLI::IsMember({"filter", "keep"}))
       ->capture_default_str()
@@ -157,6 +162,7 @@ FilterSettings FilterOptions::settings() const {
   s.filter_translations = translations == "filter";
   s.pops = parse_pops_mode(pops).value_or(PopsMode::automatic);
   s.keep_garbage_joints = garbage_joints == "keep";
+  s.split_impossible = split_impossible;
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;

@@ -14,6 +14,7 @@ struct FilterOptions {
   double sigma_t = 1.0, sigma_g = 0.2, h = 0, cutoff = 6.0, sigma_p = 0, kalman_lambda = 0;
   int window = 0, iterations = 5, search_radius = 10, patch_radius = 5, order = 2, passes = 5;
   int shard_joints = 8, shard_frames = 256;
+  bool split_impossible = false;
 
   // Registers the options on `command`; `default_method` is shown in --help.
   void add_to(CLI::App& command, const std::string& default_method);

@@ -4,7 +4,9 @@
 #include <cmath>
 #include <cstring>
 
+#include "engine/clip_conditioning.hpp"
 #include "engine/pipeline.hpp"
+#include "kernels/joint_quality.hpp"
 #include "kernels/noise_estimate.hpp"
 
 namespace mocap::engine {
@@ -135,6 +137,7 @@ nlohmann::json FilterSettings::to_json() const {
   nlohmann::json j;
   j["method"] = std::string(to_string(method));
   j["translations"] = filter_translations ? "filter" : "keep";
+  if (split_impossible) j["split_impossible"] = true;
   if (method != Method::none) {
     j["pops"] = std::string(to_string(pops));
     if (pops != PopsMode::off) j["garbage_joints"] = keep_garbage_joints ? "keep" : "filter";
@@ -234,6 +237,14 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       s.kalman.lambda = kalman_auto_lambda(noise.sigma, clip.frame_time);
   }
   r.settings.nlpm.range_sigma = std::max(0.0, r.settings.nlpm_range);
+  if (settings.split_impossible) {
+    // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
+    std::vector<std::uint8_t> flipping;
+    for (const JointQuality& q : classify_joints(clip.rotation_view()))
+      flipping.push_back(q.joint_class == JointClass::flipping);
+    r.segments = motion_segments(clip.rotation_view(), clip.frame_time, flipping);
+    if (r.segments.size() <= 1) r.segments.clear();
+  }
   return r;
 }
 
@@ -249,6 +260,10 @@ std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int j
   if (shards.empty()) shards.push_back({0, joints, 0, frames});
   return shards;
 }
+
+namespace {
+Status run_filter(const ResolvedSettings& resolved, const MotionIO& io);
+}  // namespace
 
 Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Clip& output,
                  const Shard& shard) {
@@ -269,20 +284,49 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
   }
   std::vector<std::uint8_t> translated(J, 0);
   for (int j = 0; j < J; ++j) translated[j] = input.skeleton->has_translation(j) ? 1 : 0;
-
-  MotionIO io;
-  io.frame_time = input.frame_time;
-  io.rotations = input.rotation_view();
-  io.filtered_rotations = output.rotation_span();
-  io.translations = input.translation_view();
-  io.filtered_translations = output.translation_span();
-  io.translated_joints = translated;
   if (!s.filter_translations) std::fill(translated.begin(), translated.end(), 0);
-  io.joint_begin = shard.joint_begin;
-  io.joint_end = shard.joint_end;
-  io.frame_begin = shard.frame_begin;
-  io.frame_end = shard.frame_end;
 
+  // Each segment between impossible steps is filtered as a clip of its own: views into its rows
+  // (the whole clip when it was not split).
+  const std::vector<Segment> whole{{0, input.frames}};
+  const std::vector<Segment>& segments = resolved.segments.empty() ? whole : resolved.segments;
+  Status status;
+  for (const Segment& seg : segments) {
+    const int begin = std::max(seg.begin, shard.frame_begin);
+    const int end = std::min(seg.end, shard.frame_end);
+    if (begin >= end || !status.ok()) continue;
+    const std::size_t row = std::size_t(seg.begin) * std::size_t(J);
+    MotionIO io;
+    io.frame_time = input.frame_time;
+    io.rotations = {input.rotations.data() + row * 4, seg.frames(), J};
+    io.filtered_rotations = {output.rotations.data() + row * 4, seg.frames(), J};
+    io.translations = {input.translations.data() + row * 3, seg.frames(), J};
+    io.filtered_translations = {output.translations.data() + row * 3, seg.frames(), J};
+    io.translated_joints = translated;
+    io.joint_begin = shard.joint_begin;
+    io.joint_end = shard.joint_end;
+    io.frame_begin = begin - seg.begin;
+    io.frame_end = end - seg.begin;
+    status = run_filter(resolved, io);
+  }
+  // Garbage joints as they came (after the filter: nlpm writes whole poses).
+  for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j) {
+    if (!resolved.kept_joints[std::size_t(j)]) continue;
+    for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
+      const std::size_t at = std::size_t(t) * J + std::size_t(j);
+      std::memcpy(output.rotations.data() + at * 4, input.rotations.data() + at * 4,
+                  sizeof(float) * 4);
+      std::memcpy(output.translations.data() + at * 3, input.translations.data() + at * 3,
+                  sizeof(float) * 3);
+    }
+  }
+  return status;
+}
+
+namespace {
+
+Status run_filter(const ResolvedSettings& resolved, const MotionIO& io) {
+  const FilterSettings& s = resolved.settings;
   Status status;
   switch (s.method) {
     case Method::bof:
@@ -301,18 +345,9 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
       status = LinearFilterJob{s.linear, io}.run();
       break;
   }
-  // Garbage joints as they came (after the filter: nlpm writes whole poses).
-  for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j) {
-    if (!resolved.kept_joints[std::size_t(j)]) continue;
-    for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
-      const std::size_t at = std::size_t(t) * J + std::size_t(j);
-      std::memcpy(output.rotations.data() + at * 4, input.rotations.data() + at * 4,
-                  sizeof(float) * 4);
-      std::memcpy(output.translations.data() + at * 3, input.translations.data() + at * 3,
-                  sizeof(float) * 3);
-    }
-  }
   return status;
 }
+
+}  // namespace
 
 }  // namespace mocap::engine

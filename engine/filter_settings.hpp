@@ -12,6 +12,7 @@
 #include "kernels/bilateral.hpp"
 #include "kernels/kalman.hpp"
 #include "kernels/linear_filter.hpp"
+#include "kernels/motion_split.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/status.hpp"
 
@@ -68,6 +69,9 @@ struct FilterSettings {
   PopsMode pops = PopsMode::off;
   bool keep_garbage_joints = true;  // --garbage-joints keep|filter (with pops detect|repair)
   double nlpm_range = 0;            // nlpm's range_sigma: 0 off, < 0 automatic, > 0 given (rad)
+  // Filter each segment between physically impossible steps (kernels/motion_split.hpp: CMU's
+  // synthetic T-pose frame 0) as a clip of its own.
+  bool split_impossible = false;
   BilateralParams bilateral;
   LinearParams linear;
   NlpmParams nlpm;                  // h == 0: derived per clip from the estimated noise
@@ -88,6 +92,8 @@ struct ResolvedSettings {
   // Joints whose samples are copied as they came (garbage joints), one entry per joint; and the
   // joints nlpm's pose distance looks at (empty: all).
   std::vector<std::uint8_t> kept_joints, distance_joints;
+  // With split_impossible: the clip's segments between impossible steps (empty: none found).
+  std::vector<Segment> segments;
 };
 // `garbage` (empty, or one entry per joint, nonzero = garbage) comes from the clip's
 // conditioning: garbage joints stay out of the noise estimate and nlpm's distance and, with

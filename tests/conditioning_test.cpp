@@ -237,5 +237,53 @@ TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   EXPECT_EQ(i["garbage_joints"]["by_clip"][0]["joints"][1]["class"], "constant");
 }
 
+// The filter of the settings over the whole clip, shard by shard as the engine runs it.
+io::Clip filtered(const FilterSettings& settings, const io::Clip& clip) {
+  const auto resolved = engine::resolve_for_clip(settings, clip);
+  io::Clip out = clip;
+  for (const auto& shard : engine::plan_shards(resolved.settings, clip.frames, clip.joints()))
+    EXPECT_TRUE(engine::run_shard(resolved, clip, out, shard).ok());
+  return out;
+}
+
+TEST(Conditioning, SplitImpossibleFiltersEachSegmentAsAClipOfItsOwn) {
+  io::Clip clip = test_clip(1, nullptr);
+  const int J = clip.joints();
+  // A synthetic "T-pose" frame 0: one joint 2.5 rad away from frame 1.
+  float* q = &clip.rotations[(0 * std::size_t(J) + 2) * 4];
+  store_quat(load_quat(&clip.rotations[(std::size_t(J) + 2) * 4]) * exp(Vec3{2.5, 0, 0}), q);
+  make_hemisphere_continuous(clip.rotation_span());
+  for (Method method : {Method::bof, Method::nlpm, Method::gaussian}) {
+    FilterSettings s;
+    s.method = method;
+    s.bilateral.sigma_g = 0.1;
+    s.nlpm.h = 0.02;
+    s.shard_frames = 64;  // nlpm's time blocks straddle nothing special: any block works
+    s.split_impossible = true;
+    const auto resolved = engine::resolve_for_clip(s, clip);
+    ASSERT_EQ(resolved.segments.size(), 2u);
+    EXPECT_EQ(resolved.segments[0].end, 1);
+    const io::Clip split = filtered(s, clip);
+    // Frame 0 alone: a 1-frame clip comes back unchanged.
+    EXPECT_EQ(std::memcmp(split.rotations.data(), clip.rotations.data(), 4 * J * sizeof(float)), 0);
+    // The rest is exactly the filter of the clip without frame 0.
+    io::Clip rest = clip;
+    rest.frames -= 1;
+    rest.rotations.erase(rest.rotations.begin(), rest.rotations.begin() + 4 * J);
+    rest.translations.erase(rest.translations.begin(), rest.translations.begin() + 3 * J);
+    s.split_impossible = false;
+    const io::Clip expected = filtered(s, rest);
+    EXPECT_TRUE(std::equal(expected.rotations.begin(), expected.rotations.end(),
+                           split.rotations.begin() + 4 * J))
+        << to_string(method);
+    // Without the split the jump is smeared into frame 1 (bof, whose range weights see the jump
+    // as an edge, smears it least).
+    const io::Clip smeared = filtered(s, clip);
+    EXPECT_GT(test::rotation_error(smeared.rotation_view(), split.rotation_view(), 1, 2),
+              method == Method::bof ? 1e-4 : 1e-2)
+        << to_string(method);
+  }
+}
+
 }  // namespace
 }  // namespace mocap
