@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 #include <CLI/CLI.hpp>
 
+#include "engine/cluster.hpp"
 #include "engine/commands.hpp"
 #include "engine/eval/eval_command.hpp"
 #include "engine/version.hpp"
@@ -150,6 +151,15 @@ int run_cli(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
+  }
+  // Only import, filter and noise split a library across MPI ranks; every other command would run
+  // whole on each rank and write the same outputs at once: rank 0 runs it, the others stop.
+  if (cluster().active() && !*import_cmd && !*filter_cmd && !*noise_cmd) {
+    if (cluster().rank != 0) return 0;
+    fmt::print(stderr,
+               "mocap-clean: this command runs on rank 0 only ({} ranks idle): only import, "
+               "filter and noise split across ranks; eval uses the threads of its node\n",
+               cluster().size - 1);
   }
   if (*clean_cmd) return run_clean(clean);
   if (*demo_cmd) return run_demo(demo);

@@ -160,5 +160,25 @@ TEST_F(ClusterTest, MpiTwoRanksGiveTheSingleProcessLibrary) {
   EXPECT_EQ(summary["ranks"].size(), 2u);
 }
 
+TEST_F(ClusterTest, CommandsThatDoNotSplitRunOnRankZeroOnly) {
+  if (!engine::built_with_mpi()) GTEST_SKIP() << "built without MPI (libopenmpi-dev not found)";
+#ifdef MOCAP_SANITIZED
+  GTEST_SKIP() << "MPI is not run under sanitizers (" MOCAP_SANITIZED "): OpenMPI's memory hooks";
+#endif
+  if (std::system("command -v mpirun >/dev/null 2>&1") != 0) GTEST_SKIP() << "mpirun not installed";
+  // eval under two ranks: one report, one summary, a note that rank 1 had nothing to do.
+  const std::string cmd =
+      "mpirun -np 2 --oversubscribe --allow-run-as-root '" + test::cli_path().string() +
+      "' eval '" + (dir_ / "src/a").string() + "' -o '" + (dir_ / "report").string() +
+      "' --noise gaussian:0.03 --methods bof --pops off --no-plots --json > '" +
+      (dir_ / "eval.json").string() + "' 2> '" + (dir_ / "eval.err").string() + "'";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << test::read_text(dir_ / "eval.err");
+  const std::string out = test::read_text(dir_ / "eval.json");
+  ASSERT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+  EXPECT_EQ(nlohmann::json::parse(out)["clips"], 4);
+  EXPECT_NE(test::read_text(dir_ / "eval.err").find("rank 0 only"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir_ / "report/report.json"));
+}
+
 }  // namespace
 }  // namespace mocap
