@@ -127,6 +127,17 @@ void ConditioningTally::write_to(nlohmann::json& summary) const {
       {"by_clip", garbage}};
 }
 
+namespace {
+
+std::string describe_garbage(const nlohmann::json& g) {
+  if (g["joints"].get<std::size_t>() == 0) return "";
+  return fmt::format("  garbage joints (constant, rounding or flipping): {} in {} clips, {}\n",
+                     g["joints"].get<std::size_t>(), g["clips"].get<std::size_t>(),
+                     g["handling"].get<std::string>());
+}
+
+}  // namespace
+
 std::string describe_conditioning(const nlohmann::json& summary) {
   if (!summary.contains("pops") || !summary.contains("garbage_joints")) return "";  // pops off
   const auto& p = summary["pops"];
@@ -147,17 +158,14 @@ std::string describe_conditioning(const nlohmann::json& summary) {
     if (!top.empty()) top += most.size() > 3 ? ", ...)" : ")";
     const std::size_t found = p["samples"].get<std::size_t>(),
                       fixed = p["repaired"].get<std::size_t>();
+    if (found == 0) return line + "  pops: none found\n" + describe_garbage(g);
     line += fmt::format(
         "  pops: {} found in {} clips{}, {}\n", found, p["clips"].get<std::size_t>(), top,
         fixed == found ? std::string("all repaired")
         : fixed == 0   ? std::string("none repaired (--pops repair to force)")
                        : fmt::format("{} repaired (below 60 fps only counted)", fixed));
   }
-  if (g["joints"].get<std::size_t>() > 0)
-    line += fmt::format("  garbage joints (constant, rounding or flipping): {} in {} clips, {}\n",
-                        g["joints"].get<std::size_t>(), g["clips"].get<std::size_t>(),
-                        g["handling"].get<std::string>());
-  return line;
+  return line + describe_garbage(g);
 }
 
 }  // namespace mocap::engine
