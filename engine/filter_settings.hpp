@@ -29,9 +29,9 @@ enum class PopsMode { off, detect, repair, automatic };
 // Measured with `eval` on ../shared/data/bvh (README "Pops"): at 120 fps the repair gains 20 dB
 // on the spec's pops and costs 0.05-0.7 dB on gaussian noise (where it mostly repairs glitches
 // of the captures themselves); at 30 fps (--frame-step 4) a quadratic no longer predicts fast
-// limbs well enough: it flags 0.17 % of clean samples and loses up to 6 dB at low noise (17 dB
-// on short clips), while the spec's pops (rate 1 %) gain 7 dB: no rule on the flag rate
-// separated the two on the shared clips, so below 60 fps auto only counts.
+// limbs well enough: it flags 0.17 % of clean samples and loses 7-9 dB at 0.008 rad, while the
+// spec's pops (rate 1 %) gain 7 dB; repairing only clips with over 0.5 % of samples flagged still
+// lost 6 dB (17 dB on a 44-frame clip), so below 60 fps auto only counts.
 inline constexpr double kPopsRepairMinFps = 60;
 std::optional<PopsMode> parse_pops_mode(std::string_view name);
 std::string_view to_string(PopsMode mode);
