@@ -6,6 +6,7 @@
 #include <functional>
 
 #include "engine/eval/eval_methods.hpp"
+#include "engine/eval/svg_plot.hpp"
 #include "engine/version.hpp"
 
 namespace mocap::engine::eval {
@@ -126,29 +127,14 @@ std::string to_markdown(const Table& t) {
   return out;
 }
 
-std::string escape_html(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '&')
-      out += "&amp;";
-    else if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else
-      out += c;
-  }
-  return out;
-}
-
 std::string to_html(const Table& t) {
-  std::string out = "<table>\n<caption>" + escape_html(t.caption) + "</caption>\n<tr>";
-  for (const auto& h : t.header) out += "<th>" + escape_html(h) + "</th>";
+  std::string out = "<table>\n<caption>" + escape_xml(t.caption) + "</caption>\n<tr>";
+  for (const auto& h : t.header) out += "<th>" + escape_xml(h) + "</th>";
   out += "</tr>\n";
   for (const auto& row : t.rows) {
     out += "<tr>";
     for (std::size_t i = 0; i < row.size(); ++i)
-      out += (i == 0 ? "<th>" : "<td>") + escape_html(row[i]) + (i == 0 ? "</th>" : "</td>");
+      out += (i == 0 ? "<th>" : "<td>") + escape_xml(row[i]) + (i == 0 ? "</th>" : "</td>");
     out += "</tr>\n";
   }
   return out + "</table>\n";
@@ -315,13 +301,13 @@ std::string html_report(const EvalResults& r, const EvalConfig& config,
       "{:.1f} s. Each cell: <b>best grid point / automatic parameters</b> (pooled over all "
       "clips).</p>\n<p><code>{}</code></p>\n",
       r.clips.size(), frames, config.conditions.size(), config.grids.size(), config.seed, r.tasks,
-      r.filter_seconds, escape_html(command_line));
+      r.filter_seconds, escape_xml(command_line));
   const std::vector<Table> tables = all_tables(r, config);
   html += to_html(tables.front());
   html += "<h2>Figures</h2>\n";
   for (const Figure& f : figures)
     html += fmt::format("<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>\n",
-                        f.file, escape_html(f.caption), escape_html(f.caption));
+                        f.file, escape_xml(f.caption), escape_xml(f.caption));
   html += "<h2>More scores</h2>\n";
   for (std::size_t i = 1; i < tables.size(); ++i) html += to_html(tables[i]);
   html +=
@@ -335,13 +321,12 @@ std::string html_report(const EvalResults& r, const EvalConfig& config,
     html += fmt::format(
         "<tr><th>{}</th><td>{}</td><td style=\"text-align:left\">{}</td><td>{}</td><td>{:.3g}{}"
         "</td></tr>\n",
-        escape_html(c.name), c.clean.frames, escape_html(steps.empty() ? "none" : steps),
+        escape_xml(c.name), c.clean.frames, escape_xml(steps.empty() ? "none" : steps),
         c.segments.size(), c.geometry.unit_cm, c.geometry.unit_guessed ? " (guessed)" : "");
   }
   html += "</table>\n<h2>Automatic parameters</h2>\n<ul>\n";
   for (const MethodGrid& g : config.grids)
-    html +=
-        fmt::format("<li><b>{}</b>: {}</li>\n", label(g), escape_html(automatic_rule(g.method)));
+    html += fmt::format("<li><b>{}</b>: {}</li>\n", label(g), escape_xml(automatic_rule(g.method)));
   html +=
       "</ul>\n<p>Everything, per clip and per grid point: <a href=\"report.json\">report.json</a>; "
       "the tables as markdown: <a href=\"table.md\">table.md</a>.</p>\n</body>\n</html>\n";

@@ -7,12 +7,7 @@
 #include <limits>
 
 namespace mocap::engine::eval {
-namespace {
-
-constexpr const char* kPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
-                                    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
-
-std::string escape(const std::string& text) {
+std::string escape_xml(const std::string& text) {
   std::string out;
   for (char c : text) {
     if (c == '&')
@@ -28,6 +23,11 @@ std::string escape(const std::string& text) {
   }
   return out;
 }
+
+namespace {
+
+constexpr const char* kPalette[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd",
+                                    "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
 
 std::string tick_label(double v) {
   if (v == 0) return "0";
@@ -112,7 +112,7 @@ std::string render_svg(const LinePlot& plot) {
   svg += fmt::format(
       "<text x=\"{:.1f}\" y=\"22\" text-anchor=\"middle\" font-size=\"14\" "
       "font-weight=\"bold\">{}</text>\n",
-      (x0 + x1) / 2, escape(plot.title));
+      (x0 + x1) / 2, escape_xml(plot.title));
 
   // Grid and ticks.
   const std::vector<double> xticks =
@@ -138,11 +138,11 @@ std::string render_svg(const LinePlot& plot) {
       "stroke=\"#333\"/>\n",
       x0, y1, x1 - x0, y0 - y1);
   svg += fmt::format("<text x=\"{:.1f}\" y=\"{:.1f}\" text-anchor=\"middle\">{}</text>\n",
-                     (x0 + x1) / 2, h - 12, escape(plot.x_label));
+                     (x0 + x1) / 2, h - 12, escape_xml(plot.x_label));
   svg += fmt::format(
       "<text x=\"16\" y=\"{0:.1f}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {0:.1f})\">"
       "{1}</text>\n",
-      (y0 + y1) / 2, escape(plot.y_label));
+      (y0 + y1) / 2, escape_xml(plot.y_label));
 
   // Series, clipped to the plot area.
   svg += fmt::format(
@@ -179,7 +179,7 @@ std::string render_svg(const LinePlot& plot) {
     svg += fmt::format(
         "<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" {}/>\n"
         "<text x=\"{:.1f}\" y=\"{:.1f}\">{}</text>\n",
-        x1 + 12, ly, x1 + 40, ly, style, x1 + 46, ly + 4, escape(s.name));
+        x1 + 12, ly, x1 + 40, ly, style, x1 + 46, ly + 4, escape_xml(s.name));
   }
   svg += "</svg>\n";
   return svg;

@@ -26,6 +26,9 @@ struct LinePlot {
 // The SVG document of `plot` (standalone, UTF-8).
 std::string render_svg(const LinePlot& plot);
 
+// `text` with &, <, > and " escaped: safe in XML and HTML text and attribute values.
+std::string escape_xml(const std::string& text);
+
 // Tick values covering [lo, hi] at a 1-2-5 step, about `target` of them.
 std::vector<double> nice_ticks(double lo, double hi, int target);
 
