@@ -19,12 +19,7 @@
 namespace mocap {
 namespace {
 
-struct Motion {
-  int frames = 0, joints = 0;
-  std::vector<float> rotations;
-  RotationView view() const { return {rotations.data(), frames, joints}; }
-  RotationSpan span() { return {rotations.data(), frames, joints}; }
-};
+using test::Motion;
 
 // Joint 0 constant, 1 rounding jitter (each component of a fixed rotation moved by -1, 0 or +1
 // ulp per frame), 2 flipping (a slow motion whose every 4th frame is turned by pi - 0.05 rad,

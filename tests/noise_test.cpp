@@ -16,12 +16,7 @@
 namespace mocap {
 namespace {
 
-struct Motion {
-  int frames = 0, joints = 0;
-  std::vector<float> rotations;
-  RotationView view() const { return {rotations.data(), frames, joints}; }
-  RotationSpan span() { return {rotations.data(), frames, joints}; }
-};
+using test::Motion;
 
 Motion smooth_motion(std::uint64_t seed, int frames, int joints) {
   std::mt19937_64 rng(seed);

@@ -22,13 +22,7 @@
 namespace mocap {
 namespace {
 
-struct Motion {
-  int frames = 0, joints = 0;
-  std::vector<float> rotations;
-  RotationView view() const { return {rotations.data(), frames, joints}; }
-  RotationSpan span() { return {rotations.data(), frames, joints}; }
-  Quat at(int t, int j) const { return load_quat(view().at(t, j)); }
-};
+using test::Motion;
 
 // A smooth motion whose joints turn at up to `max_speed` rad per frame: about a random axis by
 // A sin(w t + phi) (peak speed A w drawn in [max_speed / 2, max_speed], w in [0.1, 0.3] rad per

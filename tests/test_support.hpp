@@ -24,6 +24,15 @@ std::vector<std::filesystem::path> shared_bvh_files();
 
 // A random unit quaternion, uniform on SO(3).
 Quat random_rotation(std::mt19937_64& rng);
+// A rotation tensor [F][J][4] that owns its samples, with views of it.
+struct Motion {
+  int frames = 0, joints = 0;
+  std::vector<float> rotations;
+  RotationView view() const { return {rotations.data(), frames, joints}; }
+  RotationSpan span() { return {rotations.data(), frames, joints}; }
+  Quat at(int t, int j) const { return load_quat(view().at(t, j)); }
+};
+
 // A smooth random motion [F][J][4]: each joint a sum of a few random sinusoids in the tangent
 // space around a random base rotation, amplitude up to `amplitude` rad; hemisphere-continuous.
 std::vector<float> random_motion(std::mt19937_64& rng, int frames, int joints,
