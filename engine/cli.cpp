@@ -13,7 +13,9 @@ namespace {
 
 constexpr const char* kFooter = R"(Examples:
   mocap-clean demo                                   clean the built-in library, print scores
-  mocap-clean clean mocap/ -o cleaned/ --method bof  every .bvh below mocap/, same layout out
+  mocap-clean clean mocap/ -o cleaned/               every .bvh below mocap/, same layout out:
+                                                     pops repaired, method chosen per clip
+  mocap-clean clean a.bvh -o out/ --method bof       the spec's bof exactly (no pop stage)
   mocap-clean clean a.bvh b.bvh -o out/ --method nlpm --h 0.02 --json
   mocap-clean import mocap/ -o lib.h5                a whole library into one HDF5 file
   mocap-clean filter lib.h5 -o clean.h5 --method bof --threads 8
@@ -47,7 +49,7 @@ int run_cli(int argc, char** argv) {
   clean_cmd->add_option("SRC", clean.sources, "BVH files or folders (searched recursively)")
       ->required();
   clean_cmd->add_option("-o,--output", clean.output_dir, "output folder")->required();
-  clean.filter.add_to(*clean_cmd, "bof");
+  clean.filter.add_to(*clean_cmd, "auto");
   clean.run.add_to(*clean_cmd);
   clean_cmd->footer(
       "Each file keeps its path relative to the folder it was found in. A file that fails\n"
@@ -62,7 +64,7 @@ int run_cli(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   demo_cmd->add_option("--seed", demo.seed, "noise seed")->capture_default_str();
-  demo.filter.add_to(*demo_cmd, "bof");
+  demo.filter.add_to(*demo_cmd, "auto");
   demo.run.add_to(*demo_cmd);
 
   ImportCommand import;
@@ -81,7 +83,7 @@ int run_cli(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   filter.output.add_to(*filter_cmd);
-  filter.filter.add_to(*filter_cmd, "bof");
+  filter.filter.add_to(*filter_cmd, "auto");
   filter.run.add_to(*filter_cmd);
   filter_cmd->footer(
       "The output has the input's layout (runs chain) and records the method and its\n"

@@ -105,9 +105,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "before the filter: repair pops (samples that jump away and come back) by "
                  "slerp; detect: only count them; auto: repair at 60 fps and more, only count "
                  "below (a 30 fps limb moves too fast to tell); off: the spec's filter exactly "
-                 "(garbage joints neither looked for nor kept)")
+                 "(garbage joints neither looked for nor kept). Default: auto with --method "
+                 "auto; off with a named method, which then is the spec's filter exactly")
       ->check(CLI::IsMember({"auto", "repair", "detect", "off"}))
-      ->capture_default_str()
       ->group("Cleaning");
   cmd.add_option("--garbage-joints", garbage_joints,
                  "joints that are constant, move only by float rounding or flip by ~pi "
@@ -160,7 +160,9 @@ FilterSettings FilterOptions::settings() const {
   s.kalman.lambda = kalman_lambda;
   s.kalman.boundary = b;
   s.filter_translations = translations == "filter";
-  s.pops = parse_pops_mode(pops).value_or(PopsMode::automatic);
+  // A named method is the spec's filter unless a pop stage is asked for; `auto` cleans fully.
+  const PopsMode method_default = s.method == Method::automatic ? PopsMode::automatic : PopsMode::off;
+  s.pops = pops.empty() ? method_default : parse_pops_mode(pops).value_or(method_default);
   s.keep_garbage_joints = garbage_joints == "keep";
   s.split_impossible = split_impossible;
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);

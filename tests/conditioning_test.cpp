@@ -203,8 +203,9 @@ TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   std::string error;
   fs::create_directories(dir / "in");
   ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
+  // clean's defaults: --method auto, with the pop stage in `auto` mode.
   const auto r = test::run_cli("clean '" + (dir / "in").string() + "' -o '" +
-                               (dir / "out").string() + "' --method bof --json");
+                               (dir / "out").string() + "' --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["pops"]["mode"], "auto");
@@ -220,7 +221,7 @@ TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
 
   // Without --json the closing line says it too.
   const auto human = test::run_cli("clean '" + (dir / "in").string() + "' -o '" +
-                                   (dir / "out2").string() + "' --method bof");
+                                   (dir / "out2").string() + "' --method bof --pops auto");
   ASSERT_EQ(human.exit_code, 0) << human.err;
   EXPECT_NE(human.err.find("pops: 6 found in 1 clips"), std::string::npos) << human.err;
   EXPECT_NE(human.err.find("garbage joints"), std::string::npos) << human.err;
@@ -235,6 +236,34 @@ TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   EXPECT_EQ(i["garbage_joints"]["by_clip"][0]["joints"][1]["joint"],
             clip.skeleton->joint_names[kConstant]);
   EXPECT_EQ(i["garbage_joints"]["by_clip"][0]["joints"][1]["class"], "constant");
+}
+
+TEST(Conditioning, ANamedMethodIsTheSpecsFilterUnlessAPopStageIsAsked) {
+  test::TempDir dir("conditioning");
+  std::vector<int> pops;
+  const io::Clip clip = test_clip(1, &pops);
+  std::string error;
+  fs::create_directories(dir / "in");
+  ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
+  const auto clean = [&](const std::string& out, const std::string& options) {
+    const auto r = test::run_cli("clean '" + (dir / "in").string() + "' -o '" +
+                                 (dir / out).string() + "' " + options + " --json");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out);
+  };
+  const auto read = [&](const std::string& out) {
+    return test::read_text(dir / out / "walk.bvh");
+  };
+  for (const std::string method : {"bof", "nlpm", "gaussian"}) {
+    const auto named = clean("named", "--method " + method);
+    EXPECT_EQ(named["pops"]["mode"], "off") << method;
+    EXPECT_FALSE(named.contains("garbage_joints")) << method;
+    clean("off", "--method " + method + " --pops off");
+    clean("auto", "--method " + method + " --pops auto");
+    EXPECT_EQ(read("named"), read("off")) << method;
+    EXPECT_NE(read("named"), read("auto")) << method << ": the pops were not repaired";
+    for (const std::string out : {"named", "off", "auto"}) fs::remove_all(dir / out);
+  }
 }
 
 // The filter of the settings over the whole clip, shard by shard as the engine runs it.
