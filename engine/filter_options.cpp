@@ -161,7 +161,8 @@ FilterSettings FilterOptions::settings() const {
   s.kalman.boundary = b;
   s.filter_translations = translations == "filter";
   // A named method is the spec's filter unless a pop stage is asked for; `auto` cleans fully.
-  const PopsMode method_default = s.method == Method::automatic ? PopsMode::automatic : PopsMode::off;
+  const PopsMode method_default =
+      s.method == Method::automatic ? PopsMode::automatic : PopsMode::off;
   s.pops = pops.empty() ? method_default : parse_pops_mode(pops).value_or(method_default);
   s.keep_garbage_joints = garbage_joints == "keep";
   s.split_impossible = split_impossible;

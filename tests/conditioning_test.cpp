@@ -251,9 +251,7 @@ TEST(Conditioning, ANamedMethodIsTheSpecsFilterUnlessAPopStageIsAsked) {
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return nlohmann::json::parse(r.out);
   };
-  const auto read = [&](const std::string& out) {
-    return test::read_text(dir / out / "walk.bvh");
-  };
+  const auto read = [&](const std::string& out) { return test::read_text(dir / out / "walk.bvh"); };
   for (const std::string method : {"bof", "nlpm", "gaussian"}) {
     const auto named = clean("named", "--method " + method);
     EXPECT_EQ(named["pops"]["mode"], "off") << method;
