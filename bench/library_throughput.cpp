@@ -1,6 +1,7 @@
 // mocap-library-bench: the end-to-end driver. Generates a synthetic library of a given size
 // (random smooth motions with noise, fixed seed), then runs `mocap-clean filter` on it for each
-// method x pop stage x compression x thread count as a child process and prints one JSON line per run:
+// method x pop stage x compression x thread count as a child process and prints one JSON line per
+// run:
 // {"method", "pops", "compression", "threads", "clips", "joint_frames", "seconds",
 //  "joint_frames_per_second", "peak_rss_mb"} (wall time and peak RSS of the child).
 #include <fcntl.h>

@@ -52,7 +52,9 @@ std::string Skeleton::channel_list(int joint) const {
 }
 
 bool Skeleton::operator==(const Skeleton& o) const {
-  auto same_vec = [](const Vec3& a, const Vec3& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+  auto same_vec = [](const Vec3& a, const Vec3& b) {
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+  };
   if (joint_names != o.joint_names || parents != o.parents || channels != o.channels) return false;
   if (offsets.size() != o.offsets.size() || end_sites.size() != o.end_sites.size()) return false;
   for (std::size_t i = 0; i < offsets.size(); ++i)

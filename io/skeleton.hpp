@@ -16,8 +16,12 @@ enum class Channel { Xposition, Yposition, Zposition, Xrotation, Yrotation, Zrot
 
 std::optional<Channel> parse_channel(std::string_view name);
 std::string_view to_string(Channel channel);
-inline bool is_rotation(Channel c) { return c >= Channel::Xrotation; }
-inline int channel_axis(Channel c) { return int(c) % 3; }
+inline bool is_rotation(Channel c) {
+  return c >= Channel::Xrotation;
+}
+inline int channel_axis(Channel c) {
+  return int(c) % 3;
+}
 
 struct Skeleton {
   std::vector<std::string> joint_names;

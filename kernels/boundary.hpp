@@ -31,8 +31,8 @@ Vec3 extended_translation(TranslationView translations, int joint, long t, Bound
 // Joint j's curve over [-reach, F + reach): out[reach + t] is sample t.
 void extend_rotation_curve(RotationView rotations, int joint, int reach, Boundary boundary,
                            std::vector<Quat>& out);
-void extend_translation_curve(TranslationView translations, int joint, int reach,
-                              Boundary boundary, std::vector<Vec3>& out);
+void extend_translation_curve(TranslationView translations, int joint, int reach, Boundary boundary,
+                              std::vector<Vec3>& out);
 
 // The same for a curve already held in double (one joint, F samples), e.g. the output of a
 // filter's previous pass, which must not be rounded to float between passes.

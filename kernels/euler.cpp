@@ -39,7 +39,9 @@ double wrap_near(double value, double target) {
 
 }  // namespace
 
-int order_axis(RotationOrder order, int i) { return kAxes[int(order)][i]; }
+int order_axis(RotationOrder order, int i) {
+  return kAxes[int(order)][i];
+}
 
 std::string_view to_string(RotationOrder order) {
   constexpr std::string_view names[6] = {"XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"};
@@ -62,10 +64,10 @@ EulerAngles quat_to_euler(RotationOrder order, Quat q, const std::optional<Euler
   const int i = kAxes[int(order)][0], j = kAxes[int(order)][1], k = kAxes[int(order)][2];
   // Even permutations of (x, y, z) have sign +1. For R = R_i(a) R_j(b) R_k(c):
   // R[i][k] = sgn sin b, R[j][k] / R[k][k] and R[i][j] / R[i][i] give a and c.
-  const double sgn = (order == RotationOrder::XYZ || order == RotationOrder::YZX ||
-                      order == RotationOrder::ZXY)
-                         ? 1.0
-                         : -1.0;
+  const double sgn =
+      (order == RotationOrder::XYZ || order == RotationOrder::YZX || order == RotationOrder::ZXY)
+          ? 1.0
+          : -1.0;
   const Matrix r = to_matrix(normalized(q));
   const double cos_b = std::hypot(r[i][i], r[i][j]);
   double b = std::atan2(sgn * r[i][k], cos_b);

@@ -5,7 +5,8 @@
 namespace mocap {
 
 Status MotionIO::validate() const {
-  if (!(frame_time > 0)) return Status::error("frame_time must be > 0, got " + std::to_string(frame_time));
+  if (!(frame_time > 0))
+    return Status::error("frame_time must be > 0, got " + std::to_string(frame_time));
   if (rotations.data == nullptr || rotations.frames < 1 || rotations.joints < 1)
     return Status::error("the clip has no frames or no joints");
   if (!filtered_rotations.same_shape(rotations))

@@ -39,7 +39,9 @@ double geodesic(Quat a, Quat b) {
   return 4.0 * std::asin(std::min(1.0, 0.5 * chord));
 }
 
-double angle(Quat q) { return geodesic(Quat{}, q); }
+double angle(Quat q) {
+  return geodesic(Quat{}, q);
+}
 
 Vec3 rotate(Quat q, Vec3 v) {
   const Quat p{0, v.x, v.y, v.z};

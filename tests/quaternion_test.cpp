@@ -11,7 +11,9 @@
 namespace mocap {
 namespace {
 
-double quat_distance(Quat a, Quat b) { return geodesic(a, b); }
+double quat_distance(Quat a, Quat b) {
+  return geodesic(a, b);
+}
 
 TEST(Quaternion, ProductMatchesKnownRotations) {
   const Quat rx90 = exp({kPi / 2, 0, 0});
