@@ -9,7 +9,7 @@ packages=(
   libtbb-dev libeigen3-dev libhdf5-dev libhwy-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev
-  hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py
+  hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py python3-numpy
   libopenmpi-dev openmpi-bin
 )
 missing=()
