@@ -25,8 +25,8 @@ constexpr const char* kFooter = R"(Examples:
 
 Run `mocap-clean <command> --help` for the options of each command.
 
-Exit status: 0 all clips written; 1 some clips failed (named on stderr), the rest written;
-2 usage error or nothing could be done.
+Exit status: 0 all clips written; 1 some (or all) clips failed (named on stderr), the rest
+written; 2 usage error, or the run could not start (missing source, no .bvh file, ...).
 The filters follow ../shared/spec/filters.md; see README.md for each method and its parameters.)";
 
 }  // namespace

@@ -10,7 +10,14 @@ namespace mocap::engine {
 
 void report(const RunSummary& summary, bool json) {
   std::fflush(stdout);
-  for (const auto& f : summary.failed) fmt::print(stderr, "mocap-clean: {}: {}\n", f.clip, f.error);
+  for (const auto& f : summary.failed) {
+    // A reader's error already begins with the file's path and line; do not name the file twice.
+    const bool names_itself = f.error.find(f.clip + ":") != std::string::npos;
+    if (names_itself)
+      fmt::print(stderr, "mocap-clean: {}\n", f.error);
+    else
+      fmt::print(stderr, "mocap-clean: {}: {}\n", f.clip, f.error);
+  }
   if (json) {
     fmt::print("{}\n", summary.to_json().dump());
     return;

@@ -20,7 +20,6 @@ nlohmann::json RunSummary::to_json() const {
 }
 
 int RunSummary::exit_status() const {
-  if (clips == 0 && (!failed.empty() || interrupted)) return 2;
   return failed.empty() && !interrupted ? 0 : 1;
 }
 

@@ -31,8 +31,8 @@ struct RunSummary {
     joint_frames += clip_frames * clip_joints;
   }
   nlohmann::json to_json() const;
-  // 0: all done; 1: some clips failed or the run was interrupted, the rest written;
-  // 2: nothing could be done.
+  // 0: all done; 1: some clips (or all) failed or the run was interrupted, the rest written.
+  // (2, usage errors, is decided before a run starts.)
   int exit_status() const;
 };
 

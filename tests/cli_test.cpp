@@ -64,6 +64,22 @@ TEST(Cli, AFailingFileIsNamedAndTheOthersAreWritten) {
   EXPECT_EQ(summary["clips"], 2);
 }
 
+TEST(Cli, AFileThatFailsAloneExitsWithOneAndNamesItsLineOnce) {
+  test::TempDir in("clean-fail-alone"), out("clean-fail-alone-out");
+  std::string text = io::format_bvh(engine::make_demo_library()[0].clip);
+  text.replace(text.find("Frame Time:"), std::string("Frame Time:").size(), "Frame Time: -");
+  std::ofstream(in / "broken.bvh") << text;
+  const auto r = test::run_cli("clean '" + (in / "broken.bvh").string() + "' -o '" +
+                               out.path().string() + "' --method none");
+  EXPECT_EQ(r.exit_code, 1) << "a malformed file is not a usage error";
+  const std::string where = (in / "broken.bvh").string() + ":";
+  const auto first = r.err.find(where);
+  ASSERT_NE(first, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("broken.bvh", first + where.size()), std::string::npos)
+      << "the file is named once: " << r.err;
+  EXPECT_FALSE(fs::exists(out / "broken.bvh"));
+}
+
 TEST(Cli, UsageErrorsExitWithTwoAndSayWhy) {
   test::TempDir out("usage");
   const std::string o = " -o '" + out.path().string() + "'";
