@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 #include <CLI/CLI.hpp>
 
+#include "engine/cli_checks.hpp"
 #include "engine/cluster.hpp"
 #include "engine/commands.hpp"
 #include "engine/eval/eval_command.hpp"
@@ -61,7 +62,7 @@ int run_cli(int argc, char** argv) {
   demo_cmd->add_option("-o,--output", demo.output_dir, "where the demo writes its folders")
       ->capture_default_str();
   demo_cmd->add_option("--noise", demo.noise_sigma, "gaussian noise level in rad")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   demo_cmd->add_option("--seed", demo.seed, "noise seed")->capture_default_str();
   demo.filter.add_to(*demo_cmd, "auto");
@@ -111,16 +112,16 @@ int run_cli(int argc, char** argv) {
       ->check(CLI::IsMember({"gaussian", "impulse"}))
       ->capture_default_str();
   noise_cmd->add_option("--sigma", noise.sigma, "gaussian: per-axis standard deviation in rad")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   noise_cmd->add_option("--rate", noise.rate, "impulse: probability per joint-sample")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   noise_cmd->add_option("--min-angle", noise.min_angle, "impulse: smallest pop in rad")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   noise_cmd->add_option("--max-angle", noise.max_angle, "impulse: largest pop in rad")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str();
   noise_cmd->add_option("--seed", noise.seed, "the same seed and build give the same noise")
       ->capture_default_str();

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <set>
 
+#include "engine/cli_checks.hpp"
 #include "engine/cluster.hpp"
 #include "engine/commands.hpp"
 #include "engine/job.hpp"
@@ -168,7 +169,7 @@ void LibraryOutput::add_to(CLI::App& cmd) {
          "to finish joins OUT")
       ->group("Cluster");
   cmd.add_option("--clips-per-part", clips_per_part, "clips per committed part file")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Engine");
 }

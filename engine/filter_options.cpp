@@ -22,22 +22,22 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->group("Filter");
   cmd.add_option("--sigma-t", sigma_t,
                  "bof, gaussian: temporal width in frames (bof: 0 = automatic, from the noise)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--window,-k", window,
                  "bof, gaussian: half-width k in frames (0 = ceil(3 sigma_t))")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--sigma-g", sigma_g,
                  "bof: range width in radians, full rotation angle (0 = automatic, from the noise)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--iterations", iterations,
                  "bof: how many times the filter runs on its own output")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--kernel", kernel,
@@ -47,19 +47,19 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->group("Filter");
   cmd.add_option("--sigma-p", sigma_p,
                  "bof: range width for translations in the file's length unit (0 = none: Gaussian)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--search-radius,-K", search_radius, "nlpm: search window K (2K+1 poses)")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--patch-radius,-P", patch_radius, "nlpm: patch radius P (2P+1 poses)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--h", h, "nlpm: strength in radians (0 = automatic, from the estimated noise)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--space", space, "nlpm: tangent (default), or log (the paper, literally)")
@@ -84,16 +84,16 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--cutoff", cutoff, "butterworth: single-pass -3 dB cut-off in Hz")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--passes", passes, "moving-mean: passes of Blender's Smooth Keys mask")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--kalman-lambda", kalman_lambda,
                  "kalman: process over measurement noise q/r (0 = automatic, from the noise)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--boundary", boundary,
@@ -126,11 +126,11 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--shard-joints", shard_joints, "joints per task (per-joint methods)")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Engine");
   cmd.add_option("--shard-frames", shard_frames, "frames per task (nlpm)")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Engine");
 }
@@ -175,7 +175,7 @@ FilterSettings FilterOptions::settings() const {
 void RunOptions::add_to(CLI::App& cmd) {
   cmd.add_option("--threads,-j", threads,
                  "worker threads (0 = all cores); output is identical for any count")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->capture_default_str()
       ->group("Engine");
   cmd.add_flag("--json", json, "print a machine-readable summary on stdout")->group("Engine");

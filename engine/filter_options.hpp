@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "engine/cli_checks.hpp"
 #include "engine/filter_settings.hpp"
 
 namespace mocap::engine {

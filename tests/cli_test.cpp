@@ -93,6 +93,11 @@ TEST(Cli, UsageErrorsExitWithTwoAndSayWhy) {
   EXPECT_EQ(r.exit_code, 2);
   r = test::run_cli("clean x.bvh" + o + " --sigma-t -1");
   EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--sigma-t: must be a number >= 0, got '-1'"), std::string::npos) << r.err;
+  r = test::run_cli("clean x.bvh" + o + " --iterations 0");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--iterations: must be a number > 0, got '0'"), std::string::npos) << r.err;
+  EXPECT_LT(r.err.size(), 200u) << "a message to read, not a range up to DBL_MAX: " << r.err;
   r = test::run_cli("frobnicate");
   EXPECT_EQ(r.exit_code, 2);
 }

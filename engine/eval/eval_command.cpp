@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "engine/atomic_file.hpp"
+#include "engine/cli_checks.hpp"
 #include "engine/clip_source.hpp"
 #include "engine/eval/eval_plots.hpp"
 #include "engine/eval/eval_report.hpp"
@@ -136,7 +137,7 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->group("Evaluation");
   cmd->add_option("--unit-cm", command.unit_cm,
                   "cm per file length unit (default: guessed per clip: CMU-like 5.64, else 1)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(kNonNegative)
       ->group("Evaluation");
   cmd->add_flag("--split-impossible,!--no-split-impossible", command.split_impossible,
                 "filter and score separately the segments between physically impossible steps "
@@ -144,12 +145,12 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->group("Evaluation");
   cmd->add_option("--split-max-speed", command.split_max_speed,
                   "a joint turning faster than this (rad/s) in one step is impossible")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Evaluation");
   cmd->add_option("--frame-step", command.frame_step,
                   "keep every N-th frame of each clip (4: 120 fps clips become 30 fps)")
-      ->check(CLI::PositiveNumber)
+      ->check(kPositive)
       ->capture_default_str()
       ->group("Evaluation");
   cmd->add_flag("!--no-plots", command.plots, "skip the figures (and the runs they need)")

@@ -1,0 +1,30 @@
+#pragma once
+// Checks of numeric options with messages a user can act on ("--sigma-t: must be a number > 0,
+// got -1"), in place of CLI11's PositiveNumber / NonNegativeNumber, whose messages print the
+// range up to DBL_MAX in full.
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+namespace mocap::engine {
+
+namespace detail {
+inline CLI::Validator number_check(bool allow_zero, const char* name) {
+  return CLI::Validator(
+      [allow_zero](std::string& value) -> std::string {
+        char* end = nullptr;
+        const double x = std::strtod(value.c_str(), &end);
+        const bool number = end != value.c_str() && *end == '\0' && std::isfinite(x);
+        if (number && (x > 0 || (allow_zero && x == 0))) return "";
+        return std::string("must be a number ") + (allow_zero ? ">= 0" : "> 0") + ", got '" +
+               value + "'";
+      },
+      name, name);
+}
+}  // namespace detail
+
+inline const CLI::Validator kPositive = detail::number_check(false, "POSITIVE");
+inline const CLI::Validator kNonNegative = detail::number_check(true, "NONNEGATIVE");
+
+}  // namespace mocap::engine
