@@ -2,6 +2,7 @@
 // library commands.
 #include <fmt/core.h>
 
+#include "engine/automatic_tally.hpp"
 #include "engine/clip_conditioning.hpp"
 #include "engine/commands.hpp"
 #include "engine/job.hpp"
@@ -18,8 +19,9 @@ void report(const RunSummary& summary, bool json) {
     else
       fmt::print(stderr, "mocap-clean: {}: {}\n", f.clip, f.error);
   }
+  const nlohmann::json j = summary.to_json();
   if (json) {
-    fmt::print("{}\n", summary.to_json().dump());
+    fmt::print("{}\n", j.dump());
     return;
   }
   fmt::print(stderr,
@@ -29,7 +31,8 @@ void report(const RunSummary& summary, bool json) {
              summary.seconds > 0 ? double(summary.joint_frames) / summary.seconds / 1e6 : 0.0,
              summary.threads,
              summary.failed.empty() ? "" : fmt::format(", {} failed", summary.failed.size()),
-             summary.interrupted ? ", interrupted" : "", describe_conditioning(summary.to_json()));
+             summary.interrupted ? ", interrupted" : "",
+             describe_conditioning(j) + describe_automatic(j));
 }
 
 RunSummary clean_files(const std::vector<SourceFile>& files, const std::string& output_dir,

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <optional>
 
+#include "engine/automatic_tally.hpp"
 #include "engine/clip_checks.hpp"
 #include "engine/clip_conditioning.hpp"
 #include "engine/interrupt.hpp"
@@ -47,6 +48,7 @@ RunSummary run_job(const Job& job) {
   ConditioningTally tally;
   tally.mode = settings.pops;
   tally.keep_garbage = settings.keep_garbage_joints;
+  AutomaticTally automatic;
   PipelineStages stages;
   stages.count = selection.size();
   stages.read = [&](WorkItem& item) {
@@ -104,7 +106,9 @@ RunSummary run_job(const Job& job) {
     }
     if (item.error.empty()) {
       summary.add_clip(std::size_t(item.output.frames), std::size_t(item.output.joints()));
-      tally.add(item.name, item.output, std::any_cast<ClipState&>(item.context).conditioning);
+      const auto& state = std::any_cast<const ClipState&>(item.context);
+      tally.add(item.name, item.output, state.conditioning);
+      automatic.add(item.name, state.resolved);
     } else {
       summary.failed.push_back({item.name, item.error});
     }
@@ -118,6 +122,7 @@ RunSummary run_job(const Job& job) {
   progress.finish();
   summary.interrupted = read < selection.size();
   if (settings.method != Method::none) tally.write_to(summary.extra);
+  automatic.write_to(summary.extra);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

@@ -264,6 +264,51 @@ TEST(Conditioning, ANamedMethodIsTheSpecsFilterUnlessAPopStageIsAsked) {
   }
 }
 
+TEST(Conditioning, TheSummarySaysWhatTheAutomaticParametersBecame) {
+  test::TempDir dir("conditioning");
+  std::vector<int> pops;
+  const io::Clip clip = test_clip(1, &pops);
+  std::string error;
+  fs::create_directories(dir / "in");
+  ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
+  const auto clean = [&](const std::string& options) {
+    fs::remove_all(dir / "out");
+    return test::run_cli("clean '" + (dir / "in").string() + "' -o '" + (dir / "out").string() +
+                         "' " + options);
+  };
+  auto r = clean("--json");  // --method auto
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j.contains("automatic")) << r.out;
+  const auto& chosen = j["automatic"]["by_clip"][0];
+  EXPECT_EQ(chosen["clip"], "walk.bvh");
+  EXPECT_EQ(chosen["method"], "nlpm");  // light jitter: nlpm with its range term
+  const double sigma = chosen["noise_sigma"].get<double>();
+  EXPECT_GT(sigma, 0.001);
+  EXPECT_LT(sigma, 0.006);
+  EXPECT_NEAR(chosen["parameters"]["h"].get<double>(), engine::kNlpmAutoFactor * sigma, 1e-12);
+  EXPECT_NEAR(chosen["parameters"]["range_sigma"].get<double>(),
+              engine::kNlpmAutoRangeFactor * sigma, 1e-12);
+  EXPECT_EQ(j["automatic"]["methods"]["nlpm"], 1);
+
+  // bof asked for its automatic widths: the widths it used.
+  r = clean("--method bof --sigma-g 0 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(
+      j["automatic"]["by_clip"][0]["parameters"]["sigma_g"].get<double>(),
+      engine::kBofAutoSigmaGFactor * j["automatic"]["by_clip"][0]["noise_sigma"].get<double>(),
+      1e-12);
+  EXPECT_EQ(j["automatic"]["by_clip"][0]["parameters"]["sigma_t"], 1.0);  // given, kept
+
+  // Nothing automatic, nothing reported; the closing line says it otherwise.
+  r = clean("--method bof --json");
+  EXPECT_FALSE(nlohmann::json::parse(r.out).contains("automatic")) << r.out;
+  r = clean("");
+  EXPECT_NE(r.err.find("automatic parameters: nlpm on 1 clip; estimated noise"), std::string::npos)
+      << r.err;
+}
+
 // The filter of the settings over the whole clip, shard by shard as the engine runs it.
 io::Clip filtered(const FilterSettings& settings, const io::Clip& clip) {
   const auto resolved = engine::resolve_for_clip(settings, clip);
