@@ -196,16 +196,29 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   EXPECT_LT(resolved.noise_sigma, 0.006);
 }
 
-TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
-  test::TempDir dir("conditioning");
+// The 120 fps test clip written as in/walk.bvh, and `mocap-clean clean` run on it.
+class ConditioningCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    clip = test_clip(1, &pops);
+    std::string error;
+    fs::create_directories(dir / "in");
+    ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
+  }
+  // `clean in -o OUT OPTIONS`, over an earlier OUT.
+  test::CommandResult clean(const std::string& out, const std::string& options) {
+    fs::remove_all(dir / out);
+    return test::run_cli("clean '" + (dir / "in").string() + "' -o '" + (dir / out).string() +
+                         "' " + options);
+  }
+  test::TempDir dir{"conditioning"};
   std::vector<int> pops;
-  const io::Clip clip = test_clip(1, &pops);
-  std::string error;
-  fs::create_directories(dir / "in");
-  ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
+  io::Clip clip;
+};
+
+TEST_F(ConditioningCli, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   // clean's defaults: --method auto, with the pop stage in `auto` mode.
-  const auto r = test::run_cli("clean '" + (dir / "in").string() + "' -o '" +
-                               (dir / "out").string() + "' --json");
+  const auto r = clean("out", "--json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["pops"]["mode"], "auto");
@@ -220,8 +233,7 @@ TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   EXPECT_EQ(j["garbage_joints"]["handling"], "kept as they came");
 
   // Without --json the closing line says it too.
-  const auto human = test::run_cli("clean '" + (dir / "in").string() + "' -o '" +
-                                   (dir / "out2").string() + "' --method bof --pops auto");
+  const auto human = clean("out2", "--method bof --pops auto");
   ASSERT_EQ(human.exit_code, 0) << human.err;
   EXPECT_NE(human.err.find("pops: 6 found in 1 clips"), std::string::npos) << human.err;
   EXPECT_NE(human.err.find("garbage joints"), std::string::npos) << human.err;
@@ -238,45 +250,26 @@ TEST(Conditioning, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   EXPECT_EQ(i["garbage_joints"]["by_clip"][0]["joints"][1]["class"], "constant");
 }
 
-TEST(Conditioning, ANamedMethodIsTheSpecsFilterUnlessAPopStageIsAsked) {
-  test::TempDir dir("conditioning");
-  std::vector<int> pops;
-  const io::Clip clip = test_clip(1, &pops);
-  std::string error;
-  fs::create_directories(dir / "in");
-  ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
-  const auto clean = [&](const std::string& out, const std::string& options) {
-    const auto r = test::run_cli("clean '" + (dir / "in").string() + "' -o '" +
-                                 (dir / out).string() + "' " + options + " --json");
+TEST_F(ConditioningCli, ANamedMethodIsTheSpecsFilterUnlessAPopStageIsAsked) {
+  const auto summary = [&](const std::string& out, const std::string& options) {
+    const auto r = clean(out, options + " --json");
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return nlohmann::json::parse(r.out);
   };
   const auto read = [&](const std::string& out) { return test::read_text(dir / out / "walk.bvh"); };
   for (const std::string method : {"bof", "nlpm", "gaussian"}) {
-    const auto named = clean("named", "--method " + method);
+    const auto named = summary("named", "--method " + method);
     EXPECT_EQ(named["pops"]["mode"], "off") << method;
     EXPECT_FALSE(named.contains("garbage_joints")) << method;
-    clean("off", "--method " + method + " --pops off");
-    clean("auto", "--method " + method + " --pops auto");
+    summary("off", "--method " + method + " --pops off");
+    summary("auto", "--method " + method + " --pops auto");
     EXPECT_EQ(read("named"), read("off")) << method;
     EXPECT_NE(read("named"), read("auto")) << method << ": the pops were not repaired";
-    for (const std::string out : {"named", "off", "auto"}) fs::remove_all(dir / out);
   }
 }
 
-TEST(Conditioning, TheSummarySaysWhatTheAutomaticParametersBecame) {
-  test::TempDir dir("conditioning");
-  std::vector<int> pops;
-  const io::Clip clip = test_clip(1, &pops);
-  std::string error;
-  fs::create_directories(dir / "in");
-  ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
-  const auto clean = [&](const std::string& options) {
-    fs::remove_all(dir / "out");
-    return test::run_cli("clean '" + (dir / "in").string() + "' -o '" + (dir / "out").string() +
-                         "' " + options);
-  };
-  auto r = clean("--json");  // --method auto
+TEST_F(ConditioningCli, TheSummarySaysWhatTheAutomaticParametersBecame) {
+  auto r = clean("out", "--json");  // --method auto
   ASSERT_EQ(r.exit_code, 0) << r.err;
   auto j = nlohmann::json::parse(r.out);
   ASSERT_TRUE(j.contains("automatic")) << r.out;
@@ -292,7 +285,7 @@ TEST(Conditioning, TheSummarySaysWhatTheAutomaticParametersBecame) {
   EXPECT_EQ(j["automatic"]["methods"]["nlpm"], 1);
 
   // bof asked for its automatic widths: the widths it used.
-  r = clean("--method bof --sigma-g 0 --json");
+  r = clean("out", "--method bof --sigma-g 0 --json");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   j = nlohmann::json::parse(r.out);
   EXPECT_NEAR(
@@ -302,9 +295,9 @@ TEST(Conditioning, TheSummarySaysWhatTheAutomaticParametersBecame) {
   EXPECT_EQ(j["automatic"]["by_clip"][0]["parameters"]["sigma_t"], 1.0);  // given, kept
 
   // Nothing automatic, nothing reported; the closing line says it otherwise.
-  r = clean("--method bof --json");
+  r = clean("out", "--method bof --json");
   EXPECT_FALSE(nlohmann::json::parse(r.out).contains("automatic")) << r.out;
-  r = clean("");
+  r = clean("out", "");
   EXPECT_NE(r.err.find("automatic parameters: nlpm on 1 clip; estimated noise"), std::string::npos)
       << r.err;
 }

@@ -17,6 +17,8 @@ Conventions
 import math
 import numpy as np
 
+from spec_filters import make_continuous, qmul  # noqa: F401 (make_continuous is re-exported)
+
 AXES = "XYZ"
 ORDERS = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 
@@ -70,18 +72,7 @@ class Motion:
 
 
 # ----------------------------------------------------------------------------
-# quaternion helpers (local to this module, so bvh.py stands alone)
-
-def _qmul(a, b):
-    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
-    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-    return np.stack([
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ], axis=-1)
-
+# quaternion helpers: the oracle's own (spec_filters.py), one definition of each
 
 def _axis_quat(axis, angle_rad):
     """Quaternion of a rotation by angle (array) about X/Y/Z."""
@@ -98,7 +89,7 @@ def euler_to_quat(order, angles_deg):
     a = np.radians(np.asarray(angles_deg, dtype=float))
     q = _axis_quat(order[0], a[..., 0])
     for n in (1, 2):
-        q = _qmul(q, _axis_quat(order[n], a[..., n]))
+        q = qmul(q, _axis_quat(order[n], a[..., n]))
     return q
 
 
@@ -142,21 +133,6 @@ def quat_to_euler(order, q):
         a = np.where(lock, a_l, a)
         c = np.where(lock, 0.0, c)
     return np.degrees(np.stack([a, b, c], axis=-1))
-
-
-def make_continuous(q):
-    """Hemisphere continuity along axis 0 (time), per joint: q_i := -q_i when
-    q_i . q_{i-1} < 0 (sequentially, so each sample is compared with the
-    already-flipped previous one)."""
-    q = np.array(q, dtype=float, copy=True)
-    if q.shape[0] < 2:
-        return q
-    dots = np.einsum("tjc,tjc->tj", q[1:], q[:-1])
-    flips = np.concatenate([np.zeros((1,) + dots.shape[1:], dtype=int),
-                            (dots < 0).astype(int)], axis=0)
-    # sign of sample t relative to its raw value = (-1)^(number of flips up to t)
-    sign = np.where(np.cumsum(flips, axis=0) % 2 == 1, -1.0, 1.0)
-    return q * sign[..., None]
 
 
 # ----------------------------------------------------------------------------
@@ -272,7 +248,7 @@ def read_bvh(path):
         if order:
             q = _axis_quat(order[0], np.radians(data[:, rot_cols[0]]))
             for ax, cc in zip(order[1:], rot_cols[1:]):
-                q = _qmul(q, _axis_quat(ax, np.radians(data[:, cc])))
+                q = qmul(q, _axis_quat(ax, np.radians(data[:, cc])))
             m.q[:, j] = q
     m.q = make_continuous(m.q)
     return m
