@@ -10,6 +10,7 @@
 #include "kernels/bilateral.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
+#include "kernels/pop_repair.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/quaternion.hpp"
 #include "kernels/simd/band_geodesics.hpp"
@@ -93,6 +94,19 @@ BENCHMARK(BM_Nlpm)
     ->Args({0, 31, 1000})
     ->Args({1, 31, 1000})
     ->Unit(benchmark::kMillisecond);
+
+// The pop stage (detect and repair) on the same motion; it has no SIMD path.
+void BM_PopRepair(benchmark::State& state) {
+  Fixture f(int(state.range(1)), int(state.range(0)));
+  PopRepairJob job;
+  job.io = f.io;
+  for (auto _ : state) {
+    job.run();
+    benchmark::DoNotOptimize(f.out.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_PopRepair)->ArgNames({"J", "F"})->Args({31, 1000})->Unit(benchmark::kMillisecond);
 
 void BM_Gaussian(benchmark::State& state) {
   Fixture f(int(state.range(2)), int(state.range(1)));

@@ -49,26 +49,63 @@ struct FitSums {
   }
 };
 
-// Solves the 3x3 normal equations; returns false when the points do not determine a quadratic.
-// On success, `intercept` is the fit at o = 0 and `sse` the sum of squared residuals.
-// `leverage` is x0^T (X^T X)^-1 x0 at x0 = (1, 0, 0): the prediction at o = 0 has variance
-// (1 + leverage) sigma^2 for i.i.d. noise of variance sigma^2 per point.
-bool solve_quadratic(const FitSums& f, Vec3& intercept, double& sse, double& leverage) {
+// (X^T X)^-1 of a quadratic fit: the cofactors of the symmetric moment matrix
+// M = [[s0 s1 s2] [s1 s2 s3] [s2 s3 s4]] over its determinant. `leverage` is m00 =
+// x0^T (X^T X)^-1 x0 at x0 = (1, 0, 0): the prediction at o = 0 has variance (1 + leverage)
+// sigma^2 for i.i.d. noise of variance sigma^2 per point. `valid` is false when the points do
+// not determine a quadratic.
+struct MomentInverse {
+  double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
+  bool valid = false;
+};
+
+MomentInverse invert_moments(const FitSums& f) {
   const double a = f.s[0], b = f.s[1], c = f.s[2], d = f.s[3], e = f.s[4];
-  // M = [[a b c] [b c d] [c d e]], symmetric; its inverse by cofactors.
   const double c00 = c * e - d * d, c01 = c * d - b * e, c02 = b * d - c * c;
   const double c11 = a * e - c * c, c12 = b * c - a * d, c22 = a * c - b * b;
   const double det = a * c00 + b * c01 + c * c02;
-  if (!(std::abs(det) > 1e-9)) return false;
+  if (!(std::abs(det) > 1e-9)) return {};
   const double inv = 1.0 / det;
-  const Vec3 beta0 = (c00 * inv) * f.r[0] + (c01 * inv) * f.r[1] + (c02 * inv) * f.r[2];
-  const Vec3 beta1 = (c01 * inv) * f.r[0] + (c11 * inv) * f.r[1] + (c12 * inv) * f.r[2];
-  const Vec3 beta2 = (c02 * inv) * f.r[0] + (c12 * inv) * f.r[1] + (c22 * inv) * f.r[2];
+  return {c00 * inv, c01 * inv, c02 * inv, c11 * inv, c12 * inv, c22 * inv, true};
+}
+
+// The least-squares quadratic of `f` with its inverse moments `m`: `intercept` is the fit at
+// o = 0 and `sse` the sum of squared residuals.
+void solve_quadratic(const MomentInverse& m, const FitSums& f, Vec3& intercept, double& sse) {
+  const Vec3 beta0 = m.m00 * f.r[0] + m.m01 * f.r[1] + m.m02 * f.r[2];
+  const Vec3 beta1 = m.m01 * f.r[0] + m.m11 * f.r[1] + m.m12 * f.r[2];
+  const Vec3 beta2 = m.m02 * f.r[0] + m.m12 * f.r[1] + m.m22 * f.r[2];
   intercept = beta0;
-  leverage = c00 * inv;
   // Least squares: sse = sum |v|^2 - beta . X^T v.
   sse = std::max(0.0, f.vv - dot(beta0, f.r[0]) - dot(beta1, f.r[1]) - dot(beta2, f.r[2]));
-  return true;
+}
+
+// One candidate fit of a sample t: t and the block [x, y] (x > y: none) of its window left out.
+struct BlockFit {
+  int x = 0, y = -1;
+  double points = 0;
+  MomentInverse inverse;  // for the whole window in the chart (the usual case), else unused
+};
+
+// The candidate blocks of a sample whose window is [lo, hi] (t inside), in the order the fits
+// are compared (the first of equal scores wins). With `whole`, their moments for a window where
+// every neighbour is in the chart: offsets are integers, so the moments and cofactors are exact
+// and computing them once changes no bit of any fit.
+std::vector<BlockFit> candidate_blocks(int t, int lo, int hi, int max_run) {
+  std::vector<BlockFit> blocks;
+  FitSums all;
+  for (int u = lo; u <= hi; ++u)
+    if (u != t) all.add(u - t, {}, 1.0);
+  for (int x = lo; x <= hi; ++x)
+    for (int y = x - 1; y <= std::min(hi, x + max_run); ++y) {
+      const int excluded = y - x + 1 - (x <= t && t <= y ? 1 : 0);
+      if (excluded > max_run || (y < x && x != lo)) continue;
+      FitSums fit = all;
+      for (int u = x; u <= y; ++u)
+        if (u != t) fit.add(u - t, {}, -1.0);
+      blocks.push_back({x - t, y - t, std::round(fit.s[0]), invert_moments(fit)});
+    }
+  return blocks;
 }
 
 double median_of(std::vector<double> values) {
@@ -106,6 +143,8 @@ void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
   const int window = params.window();
   std::vector<Vec3> chart(curve.size());
   std::vector<std::uint8_t> in_chart(curve.size());
+  const std::vector<BlockFit> whole_window =
+      candidate_blocks(window, 0, 2 * window, params.max_run);
   for (int t = 0; t < frames; ++t) {
     // 2 window neighbours, shifted inwards at the clip ends so that an end sample is predicted
     // from as many samples as an inner one.
@@ -128,29 +167,44 @@ void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
     double best_score[2] = {std::numeric_limits<double>::infinity(),
                             std::numeric_limits<double>::infinity()};
     double residual[2] = {0, 0}, spread[2] = {1, 1};
-    // Left out: t and a block [x, y] of up to max_run other samples, next to t or anywhere in
-    // the window (x > y: none).
-    for (int x = lo; x <= hi; ++x)
-      for (int y = x - 1; y <= std::min(hi, x + params.max_run); ++y) {
-        const int excluded = y - x + 1 - (x <= t && t <= y ? 1 : 0);
-        if (excluded > params.max_run || (y < x && x != lo)) continue;
-        FitSums fit = all;
-        for (int u = x; u <= y; ++u)
-          if (u != t && in_chart[std::size_t(u)]) fit.add(u - t, chart[std::size_t(u)], -1.0);
-        const double points = std::round(fit.s[0]);
-        if (points < 4) continue;
-        Vec3 intercept;
-        double sse = 0, leverage = 0;
-        if (!solve_quadratic(fit, intercept, sse, leverage)) continue;
-        // The estimated variance of the prediction at t: noise variance times (1 + leverage).
-        const double score = sse / (points - 3) * (1 + leverage);
-        const int tier = leverage <= kMaxLeverage ? 0 : 1;
-        if (score < best_score[tier]) {
-          best_score[tier] = score;
-          residual[tier] = norm(intercept);
-          spread[tier] = std::sqrt(1 + leverage);
-        }
+    const auto reachable = [&](int u) { return u == t || in_chart[std::size_t(u)] != 0; };
+    bool whole = lo == t - window && hi == t + window;
+    for (int u = lo; whole && u <= hi; ++u) whole = reachable(u);
+    std::vector<BlockFit> near_an_end;
+    if (!whole) near_an_end = candidate_blocks(t, lo, hi, params.max_run);
+    // Blocks come x by x with y rising: each fit is the one before with one more point left
+    // out, in the same order as leaving the whole block out of `all` (the same bits).
+    FitSums fit;
+    int fit_x = 0, fit_y = 0;
+    bool started = false;
+    for (const BlockFit& block : whole ? whole_window : near_an_end) {
+      if (!started || block.x != fit_x || block.y < fit_y) {
+        fit = all;
+        fit_x = block.x;
+        fit_y = block.x - 1;
+        started = true;
       }
+      for (; fit_y < block.y; ++fit_y) {
+        const int u = t + fit_y + 1;
+        if (u != t && in_chart[std::size_t(u)]) fit.add(u - t, chart[std::size_t(u)], -1.0);
+      }
+      const double points = whole ? block.points : std::round(fit.s[0]);  // an exact count
+      if (points < 4) continue;
+      const MomentInverse inverse = whole ? block.inverse : invert_moments(fit);
+      if (!inverse.valid) continue;
+      Vec3 intercept;
+      double sse = 0;
+      solve_quadratic(inverse, fit, intercept, sse);
+      const double leverage = inverse.m00;
+      // The estimated variance of the prediction at t: noise variance times (1 + leverage).
+      const double score = sse / (points - 3) * (1 + leverage);
+      const int tier = leverage <= kMaxLeverage ? 0 : 1;
+      if (score < best_score[tier]) {
+        best_score[tier] = score;
+        residual[tier] = norm(intercept);
+        spread[tier] = std::sqrt(1 + leverage);
+      }
+    }
     const int tier = std::isfinite(best_score[0]) ? 0 : 1;
     residuals[std::size_t(t)] = residual[tier];
     spreads[std::size_t(t)] = spread[tier];
