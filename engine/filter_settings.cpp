@@ -262,7 +262,22 @@ std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int j
 }
 
 namespace {
+
 Status run_filter(const ResolvedSettings& resolved, const MotionIO& io);
+
+// Joints [joint_begin, joint_end) of the shard's frames, rotations and translations, as they came.
+void copy_samples(const io::Clip& input, io::Clip& output, int joint_begin, int joint_end,
+                  const Shard& shard) {
+  const std::size_t J = std::size_t(input.joints()), n = std::size_t(joint_end - joint_begin);
+  for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
+    const std::size_t at = std::size_t(t) * J + std::size_t(joint_begin);
+    std::memcpy(output.rotations.data() + at * 4, input.rotations.data() + at * 4,
+                sizeof(float) * 4 * n);
+    std::memcpy(output.translations.data() + at * 3, input.translations.data() + at * 3,
+                sizeof(float) * 3 * n);
+  }
+}
+
 }  // namespace
 
 Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Clip& output,
@@ -270,16 +285,7 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
   const FilterSettings& s = resolved.settings;
   const int J = input.joints();
   if (resolved.unchanged) {
-    // Copy the slice as it came.
-    for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
-      const std::size_t row = std::size_t(t) * J;
-      std::memcpy(output.rotations.data() + (row + shard.joint_begin) * 4,
-                  input.rotations.data() + (row + shard.joint_begin) * 4,
-                  sizeof(float) * 4 * (shard.joint_end - shard.joint_begin));
-      std::memcpy(output.translations.data() + (row + shard.joint_begin) * 3,
-                  input.translations.data() + (row + shard.joint_begin) * 3,
-                  sizeof(float) * 3 * (shard.joint_end - shard.joint_begin));
-    }
+    copy_samples(input, output, shard.joint_begin, shard.joint_end, shard);
     return {};
   }
   std::vector<std::uint8_t> translated(J, 0);
@@ -310,16 +316,8 @@ Status run_shard(const ResolvedSettings& resolved, const io::Clip& input, io::Cl
     status = run_filter(resolved, io);
   }
   // Garbage joints as they came (after the filter: nlpm writes whole poses).
-  for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j) {
-    if (!resolved.kept_joints[std::size_t(j)]) continue;
-    for (int t = shard.frame_begin; t < shard.frame_end; ++t) {
-      const std::size_t at = std::size_t(t) * J + std::size_t(j);
-      std::memcpy(output.rotations.data() + at * 4, input.rotations.data() + at * 4,
-                  sizeof(float) * 4);
-      std::memcpy(output.translations.data() + at * 3, input.translations.data() + at * 3,
-                  sizeof(float) * 3);
-    }
-  }
+  for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j)
+    if (resolved.kept_joints[std::size_t(j)]) copy_samples(input, output, j, j + 1, shard);
   return status;
 }
 
