@@ -106,31 +106,21 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
       used = {{"sigma_g", p.sigma_g}, {"sigma_t", p.sigma_t}, {"iterations", p.iterations}};
       return done(BilateralJob{p, io}.run());
     }
-    case EvalMethod::nlpm: {
-      NlpmParams p;
-      p.search_radius = int(value(point, "K", p.search_radius));
-      p.patch_radius = int(value(point, "P", p.patch_radius));
-      if (has(point, "h")) {
-        p.h = value(point, "h", 0);
-      } else {
-        if (!(sigma_hat > 0)) break;
-        p.h = value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
-      }
-      used = {{"h", p.h}, {"K", p.search_radius}, {"P", p.patch_radius}};
-      return done(NlpmJob{p, io, job.distance_joints}.run());
-    }
+    case EvalMethod::nlpm:
     case EvalMethod::nlpm_robust: {
+      // nlpm-robust: nlpm with its range term, whose width is relative to the noise.
+      const bool robust = method == EvalMethod::nlpm_robust;
       NlpmParams p;
       p.search_radius = int(value(point, "K", p.search_radius));
       p.patch_radius = int(value(point, "P", p.patch_radius));
-      if (!(sigma_hat > 0)) break;
+      if ((robust || !has(point, "h")) && !(sigma_hat > 0)) break;
       p.h = has(point, "h") ? value(point, "h", 0)
                             : value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
-      p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
-      used = {{"h", p.h},
-              {"range_sigma", p.range_sigma},
-              {"K", p.search_radius},
-              {"P", p.patch_radius}};
+      used = {{"h", p.h}, {"K", p.search_radius}, {"P", p.patch_radius}};
+      if (robust) {
+        p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
+        used["range_sigma"] = p.range_sigma;
+      }
       return done(NlpmJob{p, io, job.distance_joints}.run());
     }
     case EvalMethod::automatic: {
