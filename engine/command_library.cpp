@@ -14,6 +14,7 @@
 #include "engine/version.hpp"
 #include "io/compression.hpp"
 #include "io/library_join.hpp"
+#include "io/library_reader.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/noise_model.hpp"
 
@@ -153,6 +154,42 @@ io::Provenance make_provenance(const std::string& method, const nlohmann::json& 
   return {method, parameters.dump(), std::string("mocap-clean ") + kVersion, input, ""};
 }
 
+// With --resume, an output that a finished run wrote from the same input library (not changed
+// since), with the same command, parameters and engine, is complete: a job array or a script
+// run again after it finished redoes nothing. (An interrupted run leaves OUT.parts/ instead.)
+bool finished_before(const LibraryOutput& out, const io::Provenance& provenance) {
+  std::error_code ec;
+  if (!out.resume || !fs::is_regular_file(out.path, ec) || fs::exists(out.path + ".parts", ec))
+    return false;
+  const auto output_time = fs::last_write_time(out.path, ec);
+  if (ec || fs::last_write_time(provenance.input_file, ec) > output_time || ec) return false;
+  std::string error;
+  const auto reader = io::LibraryReader::open(out.path, &error);
+  const auto recorded = reader ? reader->provenance() : std::nullopt;
+  return recorded && recorded->method == provenance.method &&
+         recorded->parameters_json == provenance.parameters_json &&
+         recorded->input_file == provenance.input_file &&
+         recorded->engine_version == provenance.engine_version;
+}
+
+int report_finished_before(const std::string& command, const LibraryOutput& out,
+                           const RunOptions& run) {
+  if (cluster().rank != 0) return 0;
+  if (run.json) {
+    RunSummary summary;
+    summary.command = command;
+    summary.extra["output"] = out.path;
+    summary.extra["already_complete"] = true;
+    fmt::print("{}\n", summary.to_json().dump());
+  } else {
+    fmt::print(stderr,
+               "{}: {} is already complete (same input, parameters and engine; the input has not "
+               "changed since): nothing to do\n",
+               command, out.path);
+  }
+  return 0;
+}
+
 }  // namespace
 
 void LibraryOutput::add_to(CLI::App& cmd) {
@@ -207,6 +244,8 @@ int run_filter(const FilterCommand& command) {
   if (!source) return usage_error("filter", error);
   const io::Provenance provenance =
       make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input);
+  if (finished_before(command.output, provenance))
+    return report_finished_before("filter", command.output, command.run);
   auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("filter", error);
   Job job;
@@ -268,6 +307,8 @@ int run_noise(const NoiseCommand& command) {
   if (!source) return usage_error("noise", error);
   const io::Provenance provenance =
       make_provenance("noise", noise_parameters(command), command.input);
+  if (finished_before(command.output, provenance))
+    return report_finished_before("noise", command.output, command.run);
   auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("noise", error);
   Job job;

@@ -171,6 +171,38 @@ TEST_F(EngineTest, AnExistingPartsFolderNeedsResume) {
   EXPECT_NE(r.err.find("--resume"), std::string::npos) << r.err;
 }
 
+TEST_F(EngineTest, ResumingAFinishedOutputRedoesNothingUnlessSomethingChanged) {
+  const std::string out = (dir_ / "out.h5").string();
+  const std::string run = "filter '" + lib() + "' -o '" + out + "' --method gaussian";
+  ASSERT_EQ(test::run_cli(run).exit_code, 0);
+  // Back-date the output, so that a rewrite would show in its time stamp.
+  const auto written = fs::last_write_time(lib()) + std::chrono::seconds(5);
+  fs::last_write_time(out, written);
+
+  auto r = test::run_cli(run + " --resume");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("already complete"), std::string::npos) << r.err;
+  EXPECT_EQ(fs::last_write_time(out), written) << "the output was written again";
+  r = test::run_cli(run + " --resume --shard 1/2 --json");  // a job array run again
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(nlohmann::json::parse(r.out)["already_complete"].get<bool>()) << r.out;
+  EXPECT_FALSE(fs::exists(out + ".parts"));
+  EXPECT_EQ(fs::last_write_time(out), written);
+
+  // Other parameters: redone (and recorded, so the same command is complete again).
+  r = test::run_cli(run + " --sigma-t 2 --resume");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("already complete"), std::string::npos) << r.err;
+  EXPECT_NE(fs::last_write_time(out), written);
+  r = test::run_cli(run + " --sigma-t 2 --resume");
+  EXPECT_NE(r.err.find("already complete"), std::string::npos) << r.err;
+  // An input changed since the output was written: redone.
+  fs::last_write_time(lib(), fs::last_write_time(out) + std::chrono::seconds(5));
+  r = test::run_cli(run + " --sigma-t 2 --resume");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("already complete"), std::string::npos) << r.err;
+}
+
 // Starts mocap-clean with `arguments` (no shell), returning its pid.
 pid_t spawn_cli(const std::vector<std::string>& arguments) {
   const pid_t pid = fork();
