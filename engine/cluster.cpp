@@ -1,6 +1,11 @@
 #include "engine/cluster.hpp"
 
+#include <algorithm>
 #include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "engine/summary_merge.hpp"
 
 #ifdef MOCAP_WITH_MPI
 #define OMPI_SKIP_MPICXX 1  // the C API only: the deprecated C++ bindings need another library
@@ -58,19 +63,13 @@ void cluster_barrier() {
 #endif
 }
 
-RunSummary cluster_gather(const RunSummary& local) {
 #ifdef MOCAP_WITH_MPI
-  if (!g_mpi_initialised || g_cluster.size == 1) return local;
+namespace {
+
+// Each rank's `mine`, gathered on rank 0 in rank order (empty elsewhere).
+std::vector<std::string> gather_text(const std::string& mine) {
   const int size = g_cluster.size;
-  // Fixed-size numbers first, then the failures as "clip\terror\n" text.
-  double numbers[6] = {double(local.clips),  double(local.frames),
-                       double(local.joints), double(local.joint_frames),
-                       local.seconds,        local.interrupted ? 1.0 : 0.0};
-  std::vector<double> all(g_cluster.rank == 0 ? 6 * size : 0);
-  MPI_Gather(numbers, 6, MPI_DOUBLE, all.data(), 6, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-  std::string failures;
-  for (const auto& f : local.failed) failures += f.clip + '\t' + f.error + '\n';
-  int length = int(failures.size());
+  int length = int(mine.size());
   std::vector<int> lengths(g_cluster.rank == 0 ? size : 0), offsets(size, 0);
   MPI_Gather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
   std::string text;
@@ -79,8 +78,32 @@ RunSummary cluster_gather(const RunSummary& local) {
     for (int r = 0; r < size; ++r) offsets[r] = total, total += lengths[r];
     text.resize(std::size_t(total));
   }
-  MPI_Gatherv(failures.data(), length, MPI_CHAR, text.data(), lengths.data(), offsets.data(),
-              MPI_CHAR, 0, MPI_COMM_WORLD);
+  MPI_Gatherv(mine.data(), length, MPI_CHAR, text.data(), lengths.data(), offsets.data(), MPI_CHAR,
+              0, MPI_COMM_WORLD);
+  std::vector<std::string> all;
+  if (g_cluster.rank == 0)
+    for (int r = 0; r < size; ++r) all.push_back(text.substr(std::size_t(offsets[r]), lengths[r]));
+  return all;
+}
+
+}  // namespace
+#endif
+
+RunSummary cluster_gather(const RunSummary& local) {
+#ifdef MOCAP_WITH_MPI
+  if (!g_mpi_initialised || g_cluster.size == 1) return local;
+  const int size = g_cluster.size;
+  // Fixed-size numbers first, then the failures as "clip\terror\n" text and the tallies of the
+  // --json summary (pops, garbage joints, automatic parameters) as JSON.
+  double numbers[6] = {double(local.clips),  double(local.frames),
+                       double(local.joints), double(local.joint_frames),
+                       local.seconds,        local.interrupted ? 1.0 : 0.0};
+  std::vector<double> all(g_cluster.rank == 0 ? 6 * size : 0);
+  MPI_Gather(numbers, 6, MPI_DOUBLE, all.data(), 6, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  std::string failures;
+  for (const auto& f : local.failed) failures += f.clip + '\t' + f.error + '\n';
+  const std::vector<std::string> failures_of = gather_text(failures);
+  const std::vector<std::string> extras_of = gather_text(local.extra.dump());
   if (g_cluster.rank != 0) return local;
   RunSummary total = local;
   total.clips = total.frames = total.joints = total.joint_frames = 0;
@@ -100,15 +123,15 @@ RunSummary cluster_gather(const RunSummary& local) {
                      {"joint_frames", n[3]},
                      {"seconds", n[4]},
                      {"joint_frames_per_second", n[4] > 0 ? n[3] / n[4] : 0.0}});
-    std::size_t pos = std::size_t(offsets[r]);
-    const std::size_t end = pos + std::size_t(lengths[r]);
-    while (pos < end) {
+    const std::string& text = failures_of[std::size_t(r)];
+    for (std::size_t pos = 0; pos < text.size();) {
       const std::size_t tab = text.find('\t', pos), newline = text.find('\n', tab);
       total.failed.push_back(
           {text.substr(pos, tab - pos),
            "rank " + std::to_string(r) + ": " + text.substr(tab + 1, newline - tab - 1)});
       pos = newline + 1;
     }
+    if (r > 0) merge_tallies(total.extra, nlohmann::json::parse(extras_of[std::size_t(r)]));
   }
   total.extra["ranks"] = ranks;
   return total;

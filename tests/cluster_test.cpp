@@ -160,6 +160,40 @@ TEST_F(ClusterTest, MpiTwoRanksGiveTheSingleProcessLibrary) {
   EXPECT_EQ(summary["ranks"].size(), 2u);
 }
 
+TEST_F(ClusterTest, MpiSummaryCountsThePopsAndChoicesOfEveryRank) {
+  if (!engine::built_with_mpi()) GTEST_SKIP() << "built without MPI (libopenmpi-dev not found)";
+#ifdef MOCAP_SANITIZED
+  GTEST_SKIP() << "MPI is not run under sanitizers (" MOCAP_SANITIZED "): OpenMPI's memory hooks";
+#endif
+  if (std::system("command -v mpirun >/dev/null 2>&1") != 0) GTEST_SKIP() << "mpirun not installed";
+  const std::string popped = (dir_ / "popped.h5").string();
+  ASSERT_EQ(test::run_cli("noise '" + lib() + "' -o '" + popped + "' --model impulse").exit_code,
+            0);
+  const std::string run = "filter '" + popped + "' --method auto --json -o '";
+  const auto single = test::run_cli(run + (dir_ / "single-auto.h5").string() + "'");
+  ASSERT_EQ(single.exit_code, 0) << single.err;
+  const std::string cmd = "mpirun -np 2 --oversubscribe --allow-run-as-root '" +
+                          test::cli_path().string() + "' " + run + (dir_ / "mpi-auto.h5").string() +
+                          "' > '" + (dir_ / "mpi.json").string() + "' 2> '" +
+                          (dir_ / "mpi.err").string() + "'";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << test::read_text(dir_ / "mpi.err");
+  const auto expected = nlohmann::json::parse(single.out);
+  const auto summary = nlohmann::json::parse(test::read_text(dir_ / "mpi.json"));
+  ASSERT_GT(expected["pops"]["samples"].get<int>(), 0) << "no pops to count";
+  for (const char* key : {"samples", "repaired", "clips", "by_joint"})
+    EXPECT_EQ(summary["pops"][key], expected["pops"][key]) << key;
+  EXPECT_EQ(summary["automatic"]["clips"], 12);
+  EXPECT_EQ(summary["automatic"]["methods"], expected["automatic"]["methods"]);
+  EXPECT_EQ(summary["automatic"]["noise_sigma"], expected["automatic"]["noise_sigma"]);
+  // The same choice for each clip, whichever rank filtered it.
+  const auto by_clip = [](const nlohmann::json& j) {
+    std::map<std::string, nlohmann::json> m;
+    for (const auto& c : j["automatic"]["by_clip"]) m[c["clip"].get<std::string>()] = c;
+    return m;
+  };
+  EXPECT_EQ(by_clip(summary), by_clip(expected));
+}
+
 TEST_F(ClusterTest, CommandsThatDoNotSplitRunOnRankZeroOnly) {
   if (!engine::built_with_mpi()) GTEST_SKIP() << "built without MPI (libopenmpi-dev not found)";
 #ifdef MOCAP_SANITIZED
