@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
-#include <set>
+#include <map>
 
 namespace mocap::engine {
 namespace {
@@ -16,22 +16,37 @@ bool has_bvh_extension(const std::filesystem::path& p) {
 
 }  // namespace
 
-SourceList collect_bvh_sources(const std::vector<std::string>& arguments) {
+SourceList collect_bvh_sources(const std::vector<std::string>& arguments,
+                               const std::filesystem::path& skip_folder) {
   namespace fs = std::filesystem;
   SourceList out;
-  std::set<std::string> seen;
+  std::map<std::string, std::pair<fs::path, fs::path>> seen;  // relative -> (canonical, given)
+  std::error_code ec;
+  const fs::path skip = skip_folder.empty() ? fs::path{} : fs::weakly_canonical(skip_folder, ec);
   auto add = [&](const fs::path& path, const fs::path& relative) {
+    std::error_code canonical_ec;
+    const fs::path file = fs::weakly_canonical(path, canonical_ec);
     std::string rel = relative.generic_string();
-    if (seen.insert(rel).second) out.files.push_back({path, std::move(rel)});
+    const auto [it, inserted] = seen.emplace(rel, std::pair{file, path});
+    if (inserted)
+      out.files.push_back({path, std::move(rel)});
+    else if (it->second.first != file)
+      out.errors.push_back(it->second.second.string() + " and " + path.string() +
+                           " would both be written as " + rel + ": one would replace the other");
   };
   for (const std::string& arg : arguments) {
-    std::error_code ec;
     const fs::path path(arg);
     if (fs::is_directory(path, ec)) {
       for (auto it = fs::recursive_directory_iterator(
                path, fs::directory_options::skip_permission_denied, ec);
            !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-        if (it->is_regular_file(ec) && has_bvh_extension(it->path()))
+        std::error_code entry_ec;
+        if (!skip.empty() && it->is_directory(entry_ec) &&
+            fs::weakly_canonical(it->path(), entry_ec) == skip) {
+          it.disable_recursion_pending();  // the output of an earlier run
+          continue;
+        }
+        if (it->is_regular_file(entry_ec) && has_bvh_extension(it->path()))
           add(it->path(), it->path().lexically_relative(path));
       }
       if (ec) out.errors.push_back(arg + ": cannot list folder: " + ec.message());
@@ -40,6 +55,7 @@ SourceList collect_bvh_sources(const std::vector<std::string>& arguments) {
     } else {
       out.errors.push_back(arg + ": no such file or folder");
     }
+    ec.clear();
   }
   std::sort(out.files.begin(), out.files.end(),
             [](const SourceFile& a, const SourceFile& b) { return a.relative < b.relative; });

@@ -80,6 +80,45 @@ TEST(Cli, AFileThatFailsAloneExitsWithOneAndNamesItsLineOnce) {
   EXPECT_FALSE(fs::exists(out / "broken.bvh"));
 }
 
+TEST(Cli, NoInputIsLostOrReadTwice) {
+  test::TempDir dir("clean-layout");
+  const auto demo = engine::make_demo_library();
+  std::string error;
+  fs::create_directories(dir / "src/sub");
+  fs::create_directories(dir / "other/sub");
+  ASSERT_TRUE(io::write_bvh(demo[0].clip, dir / "src/walk.bvh", &error)) << error;
+  ASSERT_TRUE(io::write_bvh(demo[1].clip, dir / "src/sub/run.bvh", &error)) << error;
+  ASSERT_TRUE(io::write_bvh(demo[2].clip, dir / "other/sub/run.bvh", &error)) << error;
+  const std::string src = (dir / "src").string();
+  const std::string original = test::read_text(dir / "src/walk.bvh");
+
+  // An output folder inside the source folder: a second run does not clean the first's output.
+  for (int run = 0; run < 2; ++run) {
+    const auto r = test::run_cli("clean '" + src + "' -o '" + src + "/cleaned' --json");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(nlohmann::json::parse(r.out)["clips"], 2) << "run " << run;
+  }
+  EXPECT_FALSE(fs::exists(dir / "src/cleaned/cleaned"));
+
+  // Output over the input: refused, the capture untouched.
+  auto r = test::run_cli("clean '" + src + "' -o '" + src + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("would overwrite this input"), std::string::npos) << r.err;
+  EXPECT_EQ(test::read_text(dir / "src/walk.bvh"), original);
+
+  // Two different files that would land on the same output path: refused, naming both.
+  r = test::run_cli("clean '" + src + "' '" + (dir / "other").string() + "' -o '" +
+                    (dir / "out").string() + "'");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("would both be written as sub/run.bvh"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  // The same file reached twice is one clip.
+  r = test::run_cli("clean '" + src + "' '" + src + "/' -o '" + (dir / "out").string() +
+                    "' --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["clips"], 4) << "src and src/cleaned (not skipped here)";
+}
+
 TEST(Cli, UsageErrorsExitWithTwoAndSayWhy) {
   test::TempDir out("usage");
   const std::string o = " -o '" + out.path().string() + "'";
