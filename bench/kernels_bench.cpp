@@ -10,8 +10,8 @@
 #include "kernels/bilateral.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
-#include "kernels/pop_repair.hpp"
 #include "kernels/noise_model.hpp"
+#include "kernels/pop_repair.hpp"
 #include "kernels/quaternion.hpp"
 #include "kernels/simd/band_geodesics.hpp"
 #include "kernels/simd/quat_batch.hpp"
@@ -95,18 +95,24 @@ BENCHMARK(BM_Nlpm)
     ->Args({1, 31, 1000})
     ->Unit(benchmark::kMillisecond);
 
-// The pop stage (detect and repair) on the same motion; it has no SIMD path.
+// The pop stage (detect and repair) on the same motion; the fast path runs the residual fits of
+// whole-window samples in double lanes.
 void BM_PopRepair(benchmark::State& state) {
-  Fixture f(int(state.range(1)), int(state.range(0)));
+  Fixture f(int(state.range(2)), int(state.range(1)));
   PopRepairJob job;
   job.io = f.io;
+  job.implementation = implementation_of(state);
   for (auto _ : state) {
     job.run();
     benchmark::DoNotOptimize(f.out.data());
   }
   f.count(state);
 }
-BENCHMARK(BM_PopRepair)->ArgNames({"J", "F"})->Args({31, 1000})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PopRepair)
+    ->ArgNames({"fast", "J", "F"})
+    ->Args({0, 31, 1000})
+    ->Args({1, 31, 1000})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_Gaussian(benchmark::State& state) {
   Fixture f(int(state.range(2)), int(state.range(1)));

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kernels/quaternion.hpp"
+#include "kernels/simd/pop_residuals_simd.hpp"
 
 namespace mocap {
 namespace {
@@ -19,14 +20,10 @@ std::string format(const char* pattern, double value) {
   return buffer;
 }
 
-// Neighbours farther than this from the sample (rad), and all beyond them, are left out of its
-// fit: Log wraps at pi, so a fast motion (0.45 rad per frame over 10 frames) would fold back.
-constexpr double kChartReach = 2.5;
-
-// Fits that extrapolate far (the block leaves only distant samples on one side of t) predict t
-// with (1 + leverage) times the noise variance; above this leverage they are a last resort. The
-// symmetric fit has 0.26, one side of 10 samples 1.4.
-constexpr double kMaxLeverage = 10.0;
+using pop_detail::BlockFit;
+using pop_detail::kChartReach;
+using pop_detail::kMaxLeverage;
+using pop_detail::MomentInverse;
 
 // The normal-equation sums of a quadratic least-squares fit in the offset o, per point
 // (1, o, o^2, o^3, o^4) and per component (v, o v, o^2 v), plus sum |v|^2.
@@ -49,16 +46,6 @@ struct FitSums {
   }
 };
 
-// (X^T X)^-1 of a quadratic fit: the cofactors of the symmetric moment matrix
-// M = [[s0 s1 s2] [s1 s2 s3] [s2 s3 s4]] over its determinant. `leverage` is m00 =
-// x0^T (X^T X)^-1 x0 at x0 = (1, 0, 0): the prediction at o = 0 has variance (1 + leverage)
-// sigma^2 for i.i.d. noise of variance sigma^2 per point. `valid` is false when the points do
-// not determine a quadratic.
-struct MomentInverse {
-  double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
-  bool valid = false;
-};
-
 MomentInverse invert_moments(const FitSums& f) {
   const double a = f.s[0], b = f.s[1], c = f.s[2], d = f.s[3], e = f.s[4];
   const double c00 = c * e - d * d, c01 = c * d - b * e, c02 = b * d - c * c;
@@ -79,13 +66,6 @@ void solve_quadratic(const MomentInverse& m, const FitSums& f, Vec3& intercept, 
   // Least squares: sse = sum |v|^2 - beta . X^T v.
   sse = std::max(0.0, f.vv - dot(beta0, f.r[0]) - dot(beta1, f.r[1]) - dot(beta2, f.r[2]));
 }
-
-// One candidate fit of a sample t: t and the block [x, y] (x > y: none) of its window left out.
-struct BlockFit {
-  int x = 0, y = -1;
-  double points = 0;
-  MomentInverse inverse;  // for the whole window in the chart (the usual case), else unused
-};
 
 // The candidate blocks of a sample whose window is [lo, hi] (t inside), in the order the fits
 // are compared (the first of equal scores wins). With `whole`, their moments for a window where
@@ -136,80 +116,97 @@ Status PopRepairParams::validate() const {
   return {};
 }
 
+namespace pop_detail {
+
+std::vector<BlockFit> whole_window_blocks(const PopRepairParams& params) {
+  return candidate_blocks(params.window(), 0, 2 * params.window(), params.max_run);
+}
+
+void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
+                     std::span<const BlockFit> whole_window, int t, ChartScratch& scratch,
+                     std::span<double> residuals, std::span<double> spreads,
+                     std::span<double> fit_errors) {
+  const int frames = int(curve.size());
+  const int window = params.window();
+  std::vector<Vec3>& chart = scratch.chart;
+  std::vector<std::uint8_t>& in_chart = scratch.in_chart;
+  // 2 window neighbours, shifted inwards at the clip ends so that an end sample is predicted
+  // from as many samples as an inner one.
+  const int lo = std::max(0, std::min(t - window, frames - 1 - 2 * window));
+  const int hi = std::min(frames - 1, std::max(t + window, 2 * window));
+  const Quat to_chart = inverse(curve[std::size_t(t)]);
+  FitSums all;
+  // Outwards from t on each side, up to the first neighbour out of the chart's reach: beyond
+  // it, Log may have wrapped (a point 4.5 rad away maps to 2pi - 4.5 = 1.8 rad).
+  for (int side : {-1, 1}) {
+    bool reachable = true;
+    for (int u = t + side; u >= lo && u <= hi; u += side) {
+      chart[std::size_t(u)] = log(to_chart * curve[std::size_t(u)]);
+      reachable = reachable && norm(chart[std::size_t(u)]) <= kChartReach;
+      in_chart[std::size_t(u)] = reachable;
+      if (reachable) all.add(u - t, chart[std::size_t(u)], 1.0);
+    }
+  }
+  // The best fit among those that predict t well (leverage <= kMaxLeverage), else among all.
+  double best_score[2] = {std::numeric_limits<double>::infinity(),
+                          std::numeric_limits<double>::infinity()};
+  double residual[2] = {0, 0}, spread[2] = {1, 1};
+  const auto reachable = [&](int u) { return u == t || in_chart[std::size_t(u)] != 0; };
+  bool whole = lo == t - window && hi == t + window;
+  for (int u = lo; whole && u <= hi; ++u) whole = reachable(u);
+  std::vector<BlockFit> near_an_end;
+  if (!whole) near_an_end = candidate_blocks(t, lo, hi, params.max_run);
+  const std::span<const BlockFit> blocks =
+      whole ? whole_window : std::span<const BlockFit>(near_an_end);
+  // Blocks come x by x with y rising: each fit is the one before with one more point left
+  // out, in the same order as leaving the whole block out of `all` (the same bits).
+  FitSums fit;
+  int fit_x = 0, fit_y = 0;
+  bool started = false;
+  for (const BlockFit& block : blocks) {
+    if (!started || block.x != fit_x || block.y < fit_y) {
+      fit = all;
+      fit_x = block.x;
+      fit_y = block.x - 1;
+      started = true;
+    }
+    for (; fit_y < block.y; ++fit_y) {
+      const int u = t + fit_y + 1;
+      if (u != t && in_chart[std::size_t(u)]) fit.add(u - t, chart[std::size_t(u)], -1.0);
+    }
+    const double points = whole ? block.points : std::round(fit.s[0]);  // an exact count
+    if (points < 4) continue;
+    const MomentInverse inverse = whole ? block.inverse : invert_moments(fit);
+    if (!inverse.valid) continue;
+    Vec3 intercept;
+    double sse = 0;
+    solve_quadratic(inverse, fit, intercept, sse);
+    const double leverage = inverse.m00;
+    // The estimated variance of the prediction at t: noise variance times (1 + leverage).
+    const double score = sse / (points - 3) * (1 + leverage);
+    const int tier = leverage <= kMaxLeverage ? 0 : 1;
+    if (score < best_score[tier]) {
+      best_score[tier] = score;
+      residual[tier] = norm(intercept);
+      spread[tier] = std::sqrt(1 + leverage);
+    }
+  }
+  const int tier = std::isfinite(best_score[0]) ? 0 : 1;
+  residuals[std::size_t(t)] = residual[tier];
+  spreads[std::size_t(t)] = spread[tier];
+  fit_errors[std::size_t(t)] = std::isfinite(best_score[tier]) ? std::sqrt(best_score[tier]) : 0;
+}
+
+}  // namespace pop_detail
+
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
                    std::span<double> fit_errors) {
-  const int frames = int(curve.size());
-  const int window = params.window();
-  std::vector<Vec3> chart(curve.size());
-  std::vector<std::uint8_t> in_chart(curve.size());
-  const std::vector<BlockFit> whole_window =
-      candidate_blocks(window, 0, 2 * window, params.max_run);
-  for (int t = 0; t < frames; ++t) {
-    // 2 window neighbours, shifted inwards at the clip ends so that an end sample is predicted
-    // from as many samples as an inner one.
-    const int lo = std::max(0, std::min(t - window, frames - 1 - 2 * window));
-    const int hi = std::min(frames - 1, std::max(t + window, 2 * window));
-    const Quat to_chart = inverse(curve[std::size_t(t)]);
-    FitSums all;
-    // Outwards from t on each side, up to the first neighbour out of the chart's reach: beyond
-    // it, Log may have wrapped (a point 4.5 rad away maps to 2pi - 4.5 = 1.8 rad).
-    for (int side : {-1, 1}) {
-      bool reachable = true;
-      for (int u = t + side; u >= lo && u <= hi; u += side) {
-        chart[std::size_t(u)] = log(to_chart * curve[std::size_t(u)]);
-        reachable = reachable && norm(chart[std::size_t(u)]) <= kChartReach;
-        in_chart[std::size_t(u)] = reachable;
-        if (reachable) all.add(u - t, chart[std::size_t(u)], 1.0);
-      }
-    }
-    // The best fit among those that predict t well (leverage <= kMaxLeverage), else among all.
-    double best_score[2] = {std::numeric_limits<double>::infinity(),
-                            std::numeric_limits<double>::infinity()};
-    double residual[2] = {0, 0}, spread[2] = {1, 1};
-    const auto reachable = [&](int u) { return u == t || in_chart[std::size_t(u)] != 0; };
-    bool whole = lo == t - window && hi == t + window;
-    for (int u = lo; whole && u <= hi; ++u) whole = reachable(u);
-    std::vector<BlockFit> near_an_end;
-    if (!whole) near_an_end = candidate_blocks(t, lo, hi, params.max_run);
-    // Blocks come x by x with y rising: each fit is the one before with one more point left
-    // out, in the same order as leaving the whole block out of `all` (the same bits).
-    FitSums fit;
-    int fit_x = 0, fit_y = 0;
-    bool started = false;
-    for (const BlockFit& block : whole ? whole_window : near_an_end) {
-      if (!started || block.x != fit_x || block.y < fit_y) {
-        fit = all;
-        fit_x = block.x;
-        fit_y = block.x - 1;
-        started = true;
-      }
-      for (; fit_y < block.y; ++fit_y) {
-        const int u = t + fit_y + 1;
-        if (u != t && in_chart[std::size_t(u)]) fit.add(u - t, chart[std::size_t(u)], -1.0);
-      }
-      const double points = whole ? block.points : std::round(fit.s[0]);  // an exact count
-      if (points < 4) continue;
-      const MomentInverse inverse = whole ? block.inverse : invert_moments(fit);
-      if (!inverse.valid) continue;
-      Vec3 intercept;
-      double sse = 0;
-      solve_quadratic(inverse, fit, intercept, sse);
-      const double leverage = inverse.m00;
-      // The estimated variance of the prediction at t: noise variance times (1 + leverage).
-      const double score = sse / (points - 3) * (1 + leverage);
-      const int tier = leverage <= kMaxLeverage ? 0 : 1;
-      if (score < best_score[tier]) {
-        best_score[tier] = score;
-        residual[tier] = norm(intercept);
-        spread[tier] = std::sqrt(1 + leverage);
-      }
-    }
-    const int tier = std::isfinite(best_score[0]) ? 0 : 1;
-    residuals[std::size_t(t)] = residual[tier];
-    spreads[std::size_t(t)] = spread[tier];
-    fit_errors[std::size_t(t)] = std::isfinite(best_score[tier]) ? std::sqrt(best_score[tier]) : 0;
-  }
+  const std::vector<BlockFit> whole_window = pop_detail::whole_window_blocks(params);
+  pop_detail::ChartScratch scratch(curve.size());
+  for (int t = 0; t < int(curve.size()); ++t)
+    pop_detail::sample_residual(curve, params, whole_window, t, scratch, residuals, spreads,
+                                fit_errors);
 }
 
 double pop_scale(std::span<const double> residuals, std::span<const double> spreads) {
@@ -220,11 +217,14 @@ double pop_scale(std::span<const double> residuals, std::span<const double> spre
 }
 
 int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
-              std::span<std::uint8_t> flags) {
+              std::span<std::uint8_t> flags, Implementation implementation) {
   std::fill(flags.begin(), flags.end(), std::uint8_t{0});
   if (curve.size() < std::size_t(kPopRepairMinFrames)) return 0;
   std::vector<double> residuals(curve.size()), spreads(curve.size()), fit_errors(curve.size());
-  pop_residuals(curve, params, residuals, spreads, fit_errors);
+  if (implementation == Implementation::fast)
+    simd::pop_residuals(curve, params, residuals, spreads, fit_errors);
+  else
+    pop_residuals(curve, params, residuals, spreads, fit_errors);
   const double scale = pop_scale(residuals, spreads);
   int count = 0;
   for (std::size_t t = 0; t < curve.size(); ++t)
@@ -282,6 +282,8 @@ Status PopRepairJob::validate() const {
     return Status::error("flagged_samples must have one entry per sample (" +
                          std::to_string(samples) + "), got " +
                          std::to_string(flagged_samples.size()));
+  if (implementation != Implementation::fast && implementation != Implementation::reference)
+    return Status::error("unknown implementation");
   return params.validate();
 }
 
@@ -297,7 +299,7 @@ Status PopRepairJob::run() const {
     std::fill(flags.begin(), flags.end(), std::uint8_t{0});
     if (!skip) {
       for (int t = 0; t < frames; ++t) curve[std::size_t(t)] = load_quat(io.rotations.at(t, j));
-      find_pops(curve, params, flags);
+      find_pops(curve, params, flags, implementation);
     }
     const bool changes = repair && std::find(flags.begin() + begin, flags.begin() + end,
                                              std::uint8_t{1}) != flags.begin() + end;

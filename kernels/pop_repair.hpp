@@ -39,7 +39,9 @@
 // rounding) should be skipped: a joint flipping by pi is all pops to this test.
 #include <cstdint>
 #include <span>
+#include <vector>
 
+#include "kernels/implementation.hpp"
 #include "kernels/motion_io.hpp"
 #include "kernels/quaternion.hpp"
 #include "kernels/status.hpp"
@@ -65,6 +67,8 @@ struct PopRepairParams {
 // spreads[t]: sqrt(1 + leverage) of that fit, the factor by which its prediction error exceeds
 // the noise of one sample (about 1.1 inside the clip, more where the fit extrapolates);
 // fit_errors[t]: the chosen fit's estimated prediction error at t (rad).
+// This is the scalar reference; simd::pop_residuals (kernels/simd/pop_residuals_simd.hpp) is its
+// fast path.
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
                    std::span<double> fit_errors);
@@ -72,9 +76,10 @@ void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
 double pop_scale(std::span<const double> residuals, std::span<const double> spreads);
 // flags[t] = 1 where residuals[t] > max(threshold * scale * spreads[t], floor) and
 // residuals[t] > local_threshold * fit_errors[t]; all 0 below
-// kPopRepairMinFrames frames. Returns the number of flagged samples.
+// kPopRepairMinFrames frames. Returns the number of flagged samples. `implementation` picks the
+// residuals' path (both give the same bits on this build, see pop_residuals_simd.hpp).
 int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
-              std::span<std::uint8_t> flags);
+              std::span<std::uint8_t> flags, Implementation implementation = Implementation::fast);
 // out = curve with each run of flagged samples replaced by slerp between its unflagged
 // neighbours (held at a clip end; left as it is when no sample is unflagged).
 void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flags,
@@ -95,9 +100,58 @@ struct PopRepairJob {
   std::span<std::uint8_t> flagged_samples;
   // false: detect only; the output is a bit-exact copy of the input, the counts are the same.
   bool repair = true;
+  Implementation implementation = Implementation::fast;  // of the residuals, see find_pops
 
   Status validate() const;
   Status run() const;
 };
 
+// The pieces of pop_residuals that its fast path shares.
+namespace pop_detail {
+
+// Neighbours farther than this from the sample (rad), and all beyond them, are left out of its
+// fit: Log wraps at pi, so a fast motion (0.45 rad per frame over 10 frames) would fold back.
+inline constexpr double kChartReach = 2.5;
+
+// Fits that extrapolate far (the block leaves only distant samples on one side of t) predict t
+// with (1 + leverage) times the noise variance; above this leverage they are a last resort. The
+// symmetric fit has 0.26, one side of 10 samples 1.4.
+inline constexpr double kMaxLeverage = 10.0;
+
+// (X^T X)^-1 of a quadratic fit: the cofactors of the symmetric moment matrix
+// M = [[s0 s1 s2] [s1 s2 s3] [s2 s3 s4]] over its determinant. `leverage` is m00 =
+// x0^T (X^T X)^-1 x0 at x0 = (1, 0, 0): the prediction at o = 0 has variance (1 + leverage)
+// sigma^2 for i.i.d. noise of variance sigma^2 per point. `valid` is false when the points do
+// not determine a quadratic.
+struct MomentInverse {
+  double m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
+  bool valid = false;
+};
+
+// One candidate fit of a sample t: t and the block [x, y] (x > y: none) of its window left out,
+// as offsets from t.
+struct BlockFit {
+  int x = 0, y = -1;
+  double points = 0;
+  MomentInverse inverse;  // for the whole window in the chart (the usual case), else unused
+};
+
+// The candidates of a "whole" sample: window() neighbours on each side, all within kChartReach.
+std::vector<BlockFit> whole_window_blocks(const PopRepairParams& params);
+
+// Per-curve scratch of sample_residual: the chart and which samples are in it.
+struct ChartScratch {
+  std::vector<Vec3> chart;
+  std::vector<std::uint8_t> in_chart;
+  explicit ChartScratch(std::size_t frames) : chart(frames), in_chart(frames) {}
+};
+
+// residuals[t], spreads[t], fit_errors[t] of pop_residuals for one sample t; whole_window is
+// whole_window_blocks(params).
+void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
+                     std::span<const BlockFit> whole_window, int t, ChartScratch& scratch,
+                     std::span<double> residuals, std::span<double> spreads,
+                     std::span<double> fit_errors);
+
+}  // namespace pop_detail
 }  // namespace mocap

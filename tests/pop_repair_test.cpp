@@ -1,7 +1,7 @@
 // Tests of the pop repair (kernels/pop_repair.hpp): nothing flagged on fast smooth motion or on
 // clean real clips (also decimated to 30 fps), the spec's impulse noise ("Noise models") found
 // and repaired on real clips, runs of 1-3 pops, detect-only mode, the skip mask, slices, short
-// clips and parameter validation.
+// clips and parameter validation; the fast path of the residuals against the reference.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "io/bvh_reader.hpp"
@@ -17,6 +18,7 @@
 #include "kernels/metrics.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/pop_repair.hpp"
+#include "kernels/simd/pop_residuals_simd.hpp"
 #include "tests/test_support.hpp"
 
 namespace mocap {
@@ -421,6 +423,138 @@ TEST(PopRepair, ValidateExplains) {
   job.flagged_samples = {};
   job.io.filtered_rotations = {out.rotations.data(), 19, 3};
   EXPECT_EQ(job.run().message(), "filtered_rotations must have the input's shape");
+}
+
+// The largest differences between the fast path and the reference over several curves.
+struct PathDifferences {
+  double residual = 0, spread = 0, fit_error_squared = 0;
+  long samples = 0, different_bits = 0, different_flags = 0;
+};
+
+// Runs both implementations of pop_residuals and find_pops on joint j of m.
+void compare_paths(const Motion& m, int j, PathDifferences& diff,
+                   const PopRepairParams& params = {}) {
+  const std::size_t frames = std::size_t(m.frames);
+  std::vector<Quat> curve(frames);
+  for (int t = 0; t < m.frames; ++t) curve[std::size_t(t)] = m.at(t, j);
+  std::vector<double> residuals[2], spreads[2], fit_errors[2];
+  std::vector<std::uint8_t> flags[2];
+  for (int k = 0; k < 2; ++k) {
+    residuals[k].resize(frames);
+    spreads[k].resize(frames);
+    fit_errors[k].resize(frames);
+    flags[k].resize(frames);
+  }
+  pop_residuals(curve, params, residuals[0], spreads[0], fit_errors[0]);
+  simd::pop_residuals(curve, params, residuals[1], spreads[1], fit_errors[1]);
+  find_pops(curve, params, flags[0], Implementation::reference);
+  find_pops(curve, params, flags[1], Implementation::fast);
+  for (std::size_t t = 0; t < frames; ++t) {
+    diff.residual = std::max(diff.residual, std::abs(residuals[1][t] - residuals[0][t]));
+    diff.spread = std::max(diff.spread, std::abs(spreads[1][t] - spreads[0][t]));
+    diff.fit_error_squared = std::max(
+        diff.fit_error_squared,
+        std::abs(fit_errors[1][t] * fit_errors[1][t] - fit_errors[0][t] * fit_errors[0][t]));
+    diff.different_bits += residuals[1][t] != residuals[0][t] || spreads[1][t] != spreads[0][t] ||
+                           fit_errors[1][t] != fit_errors[0][t];
+    diff.different_flags += flags[1][t] != flags[0][t];
+  }
+  diff.samples += long(frames);
+}
+
+// The fast path does the reference's IEEE operations (+, -, x, /, sqrt, each correctly rounded
+// in a lane as in a scalar) in the reference's order, with no fused multiply-add (-ffp-contract=
+// off in the SIMD sources; the scalar build targets baseline x86-64), so on this build the two
+// agree to the bit (different_bits 0). The bounds are the few ulps a rounding change could cost
+// where it leaves the same block chosen: ~1e-14 rad on the intercept (sums of o^k v, |v| <= 2.5
+// rad, over 10 points) and ~1e-15 rad^2 on sse, a difference of sums, whose square root would
+// magnify it near 0 (hence the fit error compared squared). A variant of the fits with fused
+// multiply-adds measured at most 7.5e-16 rad and 9.4e-15 rad^2, but it also flipped near-tied
+// candidates (spreads differed by up to 0.11, no flag changed) and was no faster: what the
+// spread bound guards against.
+void expect_paths_agree(const PathDifferences& diff, const std::string& what) {
+  std::printf(
+      "fast vs reference, %s: %ld samples, %ld differ in any bit, max |residual| diff %.3g rad, "
+      "|spread| %.3g, |fit error^2| %.3g rad^2, %ld flags differ\n",
+      what.c_str(), diff.samples, diff.different_bits, diff.residual, diff.spread,
+      diff.fit_error_squared, diff.different_flags);
+  EXPECT_LE(diff.residual, 1e-12) << what;
+  EXPECT_LE(diff.spread, 1e-12) << what;
+  EXPECT_LE(diff.fit_error_squared, 1e-12) << what;
+  EXPECT_EQ(diff.different_flags, 0) << what;
+}
+
+TEST(PopRepair, FastPathMatchesReferenceOnRealClips) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  for (int noise = 0; noise < 3; ++noise) {
+    PathDifferences diff;
+    for (const auto& path : test::shared_bvh_files()) {
+      Motion m = real_motion(path, 1 << 30);
+      if (noise == 1) add_noise(GaussianNoise{0.03, 17}, m.span());
+      if (noise == 2) add_noise(ImpulseNoise{}, m.span());
+      make_hemisphere_continuous(m.span());
+      for (int j = 0; j < m.joints; ++j) compare_paths(m, j, diff);
+    }
+    expect_paths_agree(diff, std::string("real clips, ") + (noise == 0   ? "no noise"
+                                                            : noise == 1 ? "gaussian 0.03"
+                                                                         : "impulse"));
+  }
+}
+
+TEST(PopRepair, FastPathMatchesReferenceOnSyntheticMotion) {
+  for (const double speed : {0.05, 0.2, 0.45}) {
+    Motion m = fast_smooth_motion(21, 500, 12, speed);
+    PathDifferences diff;
+    for (int noise = 0; noise < 3; ++noise) {
+      Motion noisy = m;
+      if (noise == 1) add_noise(GaussianNoise{0.03, 3}, noisy.span());
+      if (noise == 2) add_noise(ImpulseNoise{0.03, 0.3, 1.0, 5}, noisy.span());
+      make_hemisphere_continuous(noisy.span());
+      for (int j = 0; j < noisy.joints; ++j) compare_paths(noisy, j, diff);
+    }
+    // Other windows: the candidate list (and the lanes' padding) changes with max_run and reach.
+    for (const PopRepairParams params : {PopRepairParams{1, 2}, PopRepairParams{8, 4}})
+      for (int j = 0; j < m.joints; ++j) compare_paths(m, j, diff, params);
+    expect_paths_agree(diff, "synthetic motion at " + std::to_string(speed) + " rad/frame");
+  }
+}
+
+// A joint that speeds up from 0.1 to 0.7 rad per frame mid-clip: from there on its neighbours
+// leave the chart's reach (5 x 0.7 > 2.5 rad), so interior samples take the scalar code between
+// samples that take the lanes.
+TEST(PopRepair, FastPathMatchesReferenceWhenNeighboursLeaveTheChart) {
+  Motion m{300, 1, std::vector<float>(300 * 4)};
+  double angle = 0;
+  std::mt19937_64 rng(12);
+  const Vec3 axis = log(test::random_rotation(rng));
+  for (int t = 0; t < m.frames; ++t) {
+    angle += t < 150 ? 0.1 : 0.1 + 0.6 * std::min(1.0, (t - 150) / 20.0);
+    store_quat(exp((angle / norm(axis)) * axis), m.span().at(t, 0));
+  }
+  add_noise(GaussianNoise{0.01, 4}, m.span());
+  add_noise(ImpulseNoise{0.02, 0.3, 1.0, 6}, m.span());
+  make_hemisphere_continuous(m.span());
+  int out_of_reach = 0;
+  for (int t = 5; t + 5 < m.frames; ++t) out_of_reach += geodesic(m.at(t, 0), m.at(t + 5, 0)) > 2.5;
+  EXPECT_GT(out_of_reach, 20);
+  EXPECT_LT(out_of_reach, 200);
+  PathDifferences diff;
+  compare_paths(m, 0, diff);
+  expect_paths_agree(diff, "a joint leaving the chart's reach");
+}
+
+// With window() = 5, clips of 5 and 6 frames have no whole sample, 11 and 12 frames one and two.
+TEST(PopRepair, FastPathMatchesReferenceOnShortClips) {
+  const Motion m = fast_smooth_motion(4, 12, 3, 0.2);
+  for (int frames : {5, 6, 11, 12}) {
+    Motion shorter{frames, 3,
+                   std::vector<float>(m.rotations.begin(), m.rotations.begin() + frames * 12)};
+    store_quat(shorter.at(frames / 2, 1) * exp(Vec3{0.9, 0, 0}), shorter.span().at(frames / 2, 1));
+    make_hemisphere_continuous(shorter.span());
+    PathDifferences diff;
+    for (int j = 0; j < shorter.joints; ++j) compare_paths(shorter, j, diff);
+    expect_paths_agree(diff, std::to_string(frames) + " frames");
+  }
 }
 
 // Not a bound on the machine, a number for the README.

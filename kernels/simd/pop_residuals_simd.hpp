@@ -1,0 +1,22 @@
+#pragma once
+// The fast path of pop_residuals (kernels/pop_repair.hpp), with Highway dynamic dispatch. Lanes
+// are samples t whose window is "whole" (window() neighbours on each side, all within the chart's
+// reach): they share the candidate blocks and their exact moment inverses, so every lane runs the
+// same fits. The other samples (the clip's first and last window(), or a neighbour out of reach)
+// take the scalar code. The chart Logs stay scalar double (the float Log of quat_simd-inl.h is far
+// from double accuracy). The fits use the reference's operations in its order, without fused
+// multiply-adds (-ffp-contract=off), so where the scalar build does not fuse either (the x86-64
+// baseline) the results are the reference's to the bit (tests/pop_repair_test.cpp).
+#include <span>
+
+#include "kernels/pop_repair.hpp"
+#include "kernels/quaternion.hpp"
+
+namespace mocap::simd {
+
+// The contract of mocap::pop_residuals.
+void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
+                   std::span<double> residuals, std::span<double> spreads,
+                   std::span<double> fit_errors);
+
+}  // namespace mocap::simd
