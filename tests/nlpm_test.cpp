@@ -369,6 +369,19 @@ double pose_distance_of(const Clip& clip, int u, int v) {
   return sum / clip.joints;
 }
 
+// 4 joints of random rotations for `period` frames, repeated exactly up to `frames`.
+Clip periodic_clip(std::uint64_t seed, int period, int frames) {
+  std::mt19937_64 rng(seed);
+  Clip clip{frames, 4, std::vector<float>(std::size_t(frames) * 4 * 4), {}, {}};
+  for (int t = 0; t < period; ++t)
+    for (int j = 0; j < 4; ++j)
+      store_quat(test::random_rotation(rng), &clip.rotations[(std::size_t(t) * 4 + j) * 4]);
+  for (int t = period; t < frames; ++t)
+    std::copy_n(&clip.rotations[std::size_t(t - period) * 16], 16,
+                &clip.rotations[std::size_t(t) * 16]);
+  return clip;
+}
+
 TEST(Nlpm, ExactlyPeriodicMotionIsAFixedPointForSmallH) {
   // Why, away from the ends: with period p <= K, the window of t holds exact copies
   // q_{t±p} = q_t. When t's patch lies inside the clip (P <= t <= F-1-P) and F - 1 >= 2p + 2P,
@@ -382,14 +395,7 @@ TEST(Nlpm, ExactlyPeriodicMotionIsAFixedPointForSmallH) {
   const int period = 12, frames = 5 * period, search = 12, patch = 3;
   const double h = 1e-3;
   for (std::uint64_t seed : {9, 54, 1, 2, 3}) {
-    std::mt19937_64 rng(seed);
-    Clip clip{frames, 4, std::vector<float>(std::size_t(frames) * 4 * 4), {}, {}};
-    for (int t = 0; t < period; ++t)
-      for (int j = 0; j < 4; ++j)
-        store_quat(test::random_rotation(rng), &clip.rotations[(std::size_t(t) * 4 + j) * 4]);
-    for (int t = period; t < frames; ++t)
-      std::copy_n(&clip.rotations[std::size_t(t - period) * 16], 16,
-                  &clip.rotations[std::size_t(t) * 16]);
+    const Clip clip = periodic_clip(seed, period, frames);
 
     double smallest = INFINITY;  // the least e(t, s) over non-copies in the window
     for (int t = 0; t < frames; ++t)
@@ -807,14 +813,7 @@ TEST(NlpmRange, ExactlyPeriodicMotionIsAFixedPointForSmallRangeSigma) {
   // tangent mean is at most 2K pi exp(-d_min^2 / (2 range_sigma^2)) long, whatever h and the
   // boundary do to f (unlike the plain form, which needs a small h and D_min(t) = 0).
   const int period = 12, frames = 5 * period, search = 12, patch = 3;
-  std::mt19937_64 rng(54);
-  Clip clip{frames, 4, std::vector<float>(std::size_t(frames) * 4 * 4), {}, {}};
-  for (int t = 0; t < period; ++t)
-    for (int j = 0; j < 4; ++j)
-      store_quat(test::random_rotation(rng), &clip.rotations[(std::size_t(t) * 4 + j) * 4]);
-  for (int t = period; t < frames; ++t)
-    std::copy_n(&clip.rotations[std::size_t(t - period) * 16], 16,
-                &clip.rotations[std::size_t(t) * 16]);
+  const Clip clip = periodic_clip(54, period, frames);
   double d_min = INFINITY;
   for (int t = 0; t < frames; ++t)
     for (int s = std::max(0, t - search); s <= std::min(frames - 1, t + search); ++s)
