@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "io/bvh_reader.hpp"
+#include "kernels/linear_filter.hpp"
 #include "kernels/metrics.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/nlpm_direct.hpp"
@@ -575,7 +577,20 @@ TEST(Nlpm, RemovesImpulseNoise) {
   ASSERT_GT(popped, 20);
   const double before = rmse(noisy.view(), truth.view());
   const Output out = run_nlpm(noisy, params_of(10, 5, 0.05));
-  EXPECT_LT(rmse(out.view(noisy), truth.view()), 0.5 * before);  // measured 0.36
+  const double after = rmse(out.view(noisy), truth.view());
+  EXPECT_LT(after, 0.5 * before);  // measured 0.36
+  // The spec's property: far more than the Gaussian, which smears each pop over its window.
+  std::vector<float> smoothed(noisy.rotations.size());
+  MotionIO io;
+  io.rotations = noisy.view();
+  io.filtered_rotations = {smoothed.data(), frames, joints};
+  ASSERT_TRUE((LinearFilterJob{LinearParams{}, io}.run().ok()));
+  const double gaussian = rmse({smoothed.data(), frames, joints}, truth.view());
+  std::printf("impulse noise: RMSE %.4f noisy, %.4f gaussian, %.4f nlpm\n", before, gaussian,
+              after);
+  // Measured 0.0258 against 0.0378: nlpm averages a popped pose with the similar, unpopped poses
+  // of its window, where the Gaussian spreads the pop over its neighbours.
+  EXPECT_LT(after, 0.75 * gaussian);
 }
 
 TEST(Nlpm, ValidateSaysWhatIsWrong) {
