@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "kernels/median.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/quaternion.hpp"
 
@@ -37,14 +38,7 @@ JointQuality classify_joint(RotationView rotations, int joint) {
   }
   quality.near_pi_fraction = double(quality.near_pi_steps) / double(steps_count);
 
-  const std::size_t middle = steps.size() / 2;
-  std::nth_element(steps.begin(), steps.begin() + std::ptrdiff_t(middle), steps.end());
-  quality.median_step = steps[middle];
-  if (steps.size() % 2 == 0)  // the lower middle is the largest of the lower half
-    quality.median_step =
-        (quality.median_step +
-         *std::max_element(steps.begin(), steps.begin() + std::ptrdiff_t(middle))) /
-        2;
+  quality.median_step = median(steps);
 
   if (quality.near_pi_steps >= kFlippingMinSteps && quality.near_pi_fraction >= kFlippingFraction)
     quality.joint_class = JointClass::flipping;

@@ -4,22 +4,10 @@
 #include <cmath>
 #include <vector>
 
+#include "kernels/median.hpp"
 #include "kernels/quaternion.hpp"
 
 namespace mocap {
-namespace {
-
-// Reorders `values` (non-empty).
-double median(std::vector<double>& values) {
-  const std::size_t n = values.size(), mid = n / 2;
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(mid), values.end());
-  const double upper = values[mid];
-  if (n % 2 == 1) return upper;
-  const double lower = *std::max_element(values.begin(), values.begin() + std::ptrdiff_t(mid));
-  return 0.5 * (lower + upper);
-}
-
-}  // namespace
 
 NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_t> skip_joints) {
   const int frames = rotations.frames;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "kernels/median.hpp"
 #include "kernels/quaternion.hpp"
 #include "kernels/simd/pop_residuals_simd.hpp"
 
@@ -86,15 +87,6 @@ std::vector<BlockFit> candidate_blocks(int t, int lo, int hi, int max_run) {
       blocks.push_back({x - t, y - t, std::round(fit.s[0]), invert_moments(fit)});
     }
   return blocks;
-}
-
-double median_of(std::vector<double> values) {
-  const std::size_t middle = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(middle), values.end());
-  double m = values[middle];
-  if (values.size() % 2 == 0)
-    m = (m + *std::max_element(values.begin(), values.begin() + std::ptrdiff_t(middle))) / 2;
-  return m;
 }
 
 }  // namespace
@@ -213,7 +205,7 @@ double pop_scale(std::span<const double> residuals, std::span<const double> spre
   if (residuals.empty()) return 0;
   std::vector<double> standardized(residuals.size());
   for (std::size_t t = 0; t < residuals.size(); ++t) standardized[t] = residuals[t] / spreads[t];
-  return median_of(std::move(standardized));
+  return median(standardized);
 }
 
 int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
