@@ -54,31 +54,24 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
   for (int j = 0; j < J; ++j)
     flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
+  c.repaired = mode == PopsMode::repair || (mode == PopsMode::automatic && frame_time > 0 &&
+                                            1.0 / frame_time >= kPopsRepairMinFps);
   std::vector<int> found(std::size_t(J), 0);
   std::vector<float> repaired;
-  const std::vector<Segment> segments = motion_segments(view, frame_time, flipping);
-  auto run = [&](bool repair) {
-    std::fill(c.pops.begin(), c.pops.end(), 0);
-    for (const Segment& seg : segments) {
-      const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;
-      repaired.resize(std::size_t(seg.frames()) * std::size_t(J) * 4);
-      PopRepairJob job;
-      job.io.frame_time = frame_time;
-      job.io.rotations = {rotations.data + offset, seg.frames(), J};
-      job.io.filtered_rotations = {repaired.data(), seg.frames(), J};
-      job.skip_joints = flipping;
-      job.flagged_per_joint = found;
-      job.repair = repair;
-      if (const Status s = job.run(); !s.ok())
-        throw std::runtime_error("pop repair: " + s.message());
-      for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
-      if (repair) std::copy(repaired.begin(), repaired.end(), rotations.data + offset);
-    }
-  };
-  const bool repair = mode == PopsMode::repair || (mode == PopsMode::automatic && frame_time > 0 &&
-                                                   1.0 / frame_time >= kPopsRepairMinFps);
-  c.repaired = repair;
-  run(repair);
+  for (const Segment& seg : motion_segments(view, frame_time, flipping)) {
+    const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;
+    repaired.resize(std::size_t(seg.frames()) * std::size_t(J) * 4);
+    PopRepairJob job;
+    job.io.frame_time = frame_time;
+    job.io.rotations = {rotations.data + offset, seg.frames(), J};
+    job.io.filtered_rotations = {repaired.data(), seg.frames(), J};
+    job.skip_joints = flipping;
+    job.flagged_per_joint = found;
+    job.repair = c.repaired;
+    if (const Status s = job.run(); !s.ok()) throw std::runtime_error("pop repair: " + s.message());
+    for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
+    if (c.repaired) std::copy(repaired.begin(), repaired.end(), rotations.data + offset);
+  }
   return c;
 }
 

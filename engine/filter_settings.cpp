@@ -325,25 +325,19 @@ namespace {
 
 Status run_filter(const ResolvedSettings& resolved, const MotionIO& io) {
   const FilterSettings& s = resolved.settings;
-  Status status;
   switch (s.method) {
     case Method::bof:
-      status = BilateralJob{s.bilateral, io}.run();
-      break;
+      return BilateralJob{s.bilateral, io}.run();
     case Method::nlpm:
-      status = NlpmJob{s.nlpm, io, resolved.distance_joints}.run();
-      break;
+      return NlpmJob{s.nlpm, io, resolved.distance_joints}.run();
     case Method::none:
     case Method::automatic:  // resolved per clip; never left automatic
-      break;
+      return {};
     case Method::kalman:
-      status = KalmanJob{s.kalman, io}.run();
-      break;
+      return KalmanJob{s.kalman, io}.run();
     default:
-      status = LinearFilterJob{s.linear, io}.run();
-      break;
+      return LinearFilterJob{s.linear, io}.run();
   }
-  return status;
 }
 
 }  // namespace
