@@ -187,6 +187,14 @@ nlohmann::json FilterSettings::to_json() const {
   return j;
 }
 
+std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> garbage) {
+  std::vector<std::uint8_t> distance;
+  for (std::uint8_t g : garbage) distance.push_back(g ? 0 : 1);
+  const auto count = std::count(distance.begin(), distance.end(), std::uint8_t{1});
+  if (count == 0 || std::size_t(count) == distance.size()) distance.clear();
+  return distance;
+}
+
 ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip,
                                   std::span<const std::uint8_t> garbage) {
   ResolvedSettings r;
@@ -202,11 +210,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       robust && std::any_of(garbage.begin(), garbage.end(), [](std::uint8_t g) { return g; });
   if (any_garbage) {
     if (settings.keep_garbage_joints) r.kept_joints.assign(garbage.begin(), garbage.end());
-    r.distance_joints.resize(garbage.size());
-    for (std::size_t j = 0; j < garbage.size(); ++j) r.distance_joints[j] = garbage[j] ? 0 : 1;
-    if (std::none_of(r.distance_joints.begin(), r.distance_joints.end(),
-                     [](std::uint8_t d) { return d; }))
-      r.distance_joints.clear();  // nothing but garbage: the spec's whole-pose distance
+    r.distance_joints = distance_joints_without(garbage);
   }
 
   const Method asked = settings.method;

@@ -95,6 +95,10 @@ struct ResolvedSettings {
   // With split_impossible: the clip's segments between impossible steps (empty: none found).
   std::vector<Segment> segments;
 };
+// The joints nlpm's pose distance looks at when `garbage` (one entry per joint, nonzero =
+// garbage) are left out: empty (all joints, the spec's distance) when none or all are garbage.
+std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> garbage);
+
 // `garbage` (empty, or one entry per joint, nonzero = garbage) comes from the clip's
 // conditioning: garbage joints stay out of the noise estimate and nlpm's distance and, with
 // keep_garbage_joints, are copied as they came.

@@ -76,12 +76,10 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
   const std::vector<float>& input = repaired ? noisy.repaired : noisy.rotations;
   const std::vector<double>& sigma_hats = repaired ? noisy.repaired_sigma_hats : noisy.sigma_hats;
   // As the engine does (resolve_for_clip): garbage joints kept, the others for the distance.
-  std::vector<std::uint8_t> distance;
   const bool any_garbage =
       repaired && std::find(noisy.garbage.begin(), noisy.garbage.end(), 1) != noisy.garbage.end();
-  if (any_garbage)
-    for (std::uint8_t g : noisy.garbage) distance.push_back(g ? 0 : 1);
-  if (std::find(distance.begin(), distance.end(), 1) == distance.end()) distance.clear();
+  const std::vector<std::uint8_t> distance =
+      any_garbage ? distance_joints_without(noisy.garbage) : std::vector<std::uint8_t>{};
   out.resize(input.size());
   if (resolved) *resolved = nlohmann::json::array();
   for (std::size_t s = 0; s < clip.segments.size(); ++s) {
