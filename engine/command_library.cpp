@@ -7,6 +7,7 @@
 #include <set>
 
 #include "engine/cli_checks.hpp"
+#include "engine/clip_conditioning.hpp"
 #include "engine/cluster.hpp"
 #include "engine/commands.hpp"
 #include "engine/job.hpp"
@@ -15,7 +16,6 @@
 #include "io/compression.hpp"
 #include "io/library_join.hpp"
 #include "io/library_reader.hpp"
-#include "kernels/joint_quality.hpp"
 #include "kernels/noise_model.hpp"
 
 namespace mocap::engine {
@@ -407,23 +407,16 @@ int run_info(const InfoCommand& command) {
                        {"created", p->created}};
   }
   if (command.joints) {
-    // Garbage joints, read clip by clip (the data, not only the headers).
-    nlohmann::json garbage = nlohmann::json::array();
-    std::size_t count = 0;
+    // Garbage joints, read clip by clip (the data, not only the headers), classified and listed
+    // as filter's pop stage does (nothing repaired).
+    ConditioningTally tally;
     for (std::size_t i = 0; i < source->count(); ++i) {
       std::optional<io::Clip> clip = source->read(i, &error);
       if (!clip) continue;  // already listed as unreadable
-      nlohmann::json joints = nlohmann::json::array();
-      const std::vector<JointQuality> quality = classify_joints(clip->rotation_view());
-      for (std::size_t jt = 0; jt < quality.size(); ++jt)
-        if (is_garbage(quality[jt].joint_class))
-          joints.push_back({{"joint", clip->skeleton->joint_names[jt]},
-                            {"class", std::string(to_string(quality[jt].joint_class))}});
-      count += joints.size();
-      if (!joints.empty())
-        garbage.push_back({{"clip", source->clip_path(i)}, {"joints", std::move(joints)}});
+      tally.add(source->clip_path(i), *clip,
+                condition_rotations(PopsMode::off, clip->rotation_span(), clip->frame_time));
     }
-    j["garbage_joints"] = {{"joints", count}, {"by_clip", garbage}};
+    j["garbage_joints"] = {{"joints", tally.garbage_joints}, {"by_clip", tally.garbage}};
   }
   j["unreadable"] = unreadable;
   if (command.list_clips) j["clip_list"] = clips;
