@@ -2,7 +2,7 @@
 
 #include <fmt/core.h>
 
-#include <algorithm>
+#include "engine/run_summary.hpp"
 
 namespace mocap::engine {
 
@@ -38,12 +38,7 @@ void AutomaticTally::write_to(nlohmann::json& summary) const {
 std::string describe_automatic(const nlohmann::json& summary) {
   if (!summary.contains("automatic")) return "";
   const auto& a = summary["automatic"];
-  std::vector<std::pair<std::size_t, std::string>> most;
-  for (const auto& [method, n] : a["methods"].items())
-    most.push_back({n.get<std::size_t>(), method});
-  std::sort(most.begin(), most.end(), [](const auto& x, const auto& y) {
-    return x.first != y.first ? x.first > y.first : x.second < y.second;
-  });
+  const auto most = largest_first(a["methods"]);
   std::string methods;
   for (std::size_t i = 0; i < most.size(); ++i)
     methods += fmt::format("{}{} on {}{}", i ? ", " : "", most[i].second, most[i].first,

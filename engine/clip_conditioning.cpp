@@ -6,6 +6,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "engine/run_summary.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/pop_repair.hpp"
 #include "kernels/quaternion.hpp"
@@ -139,12 +140,7 @@ std::string describe_conditioning(const nlohmann::json& summary) {
   std::string line;
   if (mode != "off") {
     // The joints with most pops first (at most three).
-    std::vector<std::pair<std::size_t, std::string>> most;
-    for (const auto& [joint, n] : p["by_joint"].items())
-      most.push_back({n.get<std::size_t>(), joint});
-    std::sort(most.begin(), most.end(), [](const auto& a, const auto& b) {
-      return a.first != b.first ? a.first > b.first : a.second < b.second;
-    });
+    const auto most = largest_first(p["by_joint"]);
     std::string top;
     for (std::size_t i = 0; i < std::min<std::size_t>(3, most.size()); ++i)
       top += fmt::format("{}{} {}", i ? ", " : " (", most[i].second, most[i].first);

@@ -1,6 +1,17 @@
 #include "engine/run_summary.hpp"
 
+#include <algorithm>
+
 namespace mocap::engine {
+
+std::vector<std::pair<std::size_t, std::string>> largest_first(const nlohmann::json& counts) {
+  std::vector<std::pair<std::size_t, std::string>> entries;
+  for (const auto& [name, n] : counts.items()) entries.push_back({n.get<std::size_t>(), name});
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  return entries;
+}
 
 nlohmann::json RunSummary::to_json() const {
   nlohmann::json j = extra;

@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mocap::engine {
@@ -11,6 +12,10 @@ struct ClipFailure {
   std::string clip;
   std::string error;
 };
+
+// The entries of a {name: count} object of a summary, largest count first (then by name): the
+// order the closing line names them in.
+std::vector<std::pair<std::size_t, std::string>> largest_first(const nlohmann::json& counts);
 
 struct RunSummary {
   std::string command;
