@@ -85,8 +85,7 @@ BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, do
   return params;
 }
 
-FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
-                                double /*frame_time*/) {
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat) {
   FilterSettings s = settings;
   if (sigma_hat < kAutoNlpmBelow) {
     s.method = Method::nlpm;
@@ -227,8 +226,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
       return r;
     }
-    if (asked == Method::automatic)
-      r.settings = choose_automatic(settings, noise.sigma, clip.frame_time);
+    if (asked == Method::automatic) r.settings = choose_automatic(settings, noise.sigma);
     FilterSettings& s = r.settings;
     s.linear.kind = linear_kind(s.method);
     if (s.method == Method::nlpm) {

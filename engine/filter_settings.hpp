@@ -105,16 +105,15 @@ std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> 
 ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip& clip,
                                   std::span<const std::uint8_t> garbage = {});
 
-// What --method auto picks for a clip of estimated noise sigma_hat (rad) and frame time (s):
-// the method and its automatic parameters (README "Automatic parameters"). Measured with `eval`
-// on ../shared/data/bvh: nlpm with its range term is best up to 0.03 rad, bof at 0.12 rad; the
-// switch sits between them (geometric middle).
+// What --method auto picks for a clip of estimated noise sigma_hat (rad): the method, with its
+// parameters left automatic (resolved for the clip's frame time by resolve_for_clip) (README
+// "Automatic parameters"). Measured with `eval` on ../shared/data/bvh: nlpm with its range term is
+// best up to 0.03 rad, bof at 0.12 rad; the switch sits between them (geometric middle).
 //   sigma_hat < kAutoNlpmBelow:  nlpm, h = kNlpmAutoFactor sigma_hat, range = kNlpmAutoRangeFactor
 //                                sigma_hat, K = 10, P = 5
 //   otherwise:                   bof, automatic_bilateral
 inline constexpr double kAutoNlpmBelow = 0.06;
-FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
-                                double frame_time);
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat);
 
 // The output slices of a clip: joint blocks for per-joint methods, time blocks for nlpm.
 std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int joints);

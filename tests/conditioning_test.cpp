@@ -175,10 +175,10 @@ TEST(Conditioning, GarbageJointsAreKeptAsTheyCameAndLeftOutOfNlpmsDistance) {
 TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   FilterSettings s;
   s.method = Method::automatic;
-  const FilterSettings low = engine::choose_automatic(s, 0.01, 1.0 / 120);
+  const FilterSettings low = engine::choose_automatic(s, 0.01);
   EXPECT_EQ(low.method, Method::nlpm);
   EXPECT_LT(low.nlpm_range, 0);  // automatic: resolved from sigma_hat
-  const FilterSettings high = engine::choose_automatic(s, 0.1, 1.0 / 120);
+  const FilterSettings high = engine::choose_automatic(s, 0.1);
   EXPECT_EQ(high.method, Method::bof);
   EXPECT_EQ(high.bilateral.sigma_g, 0);
 

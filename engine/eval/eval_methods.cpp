@@ -125,7 +125,7 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
     }
     case EvalMethod::automatic: {
       if (!(sigma_hat > 0)) break;
-      const FilterSettings chosen = choose_automatic(FilterSettings{}, sigma_hat, job.frame_time);
+      const FilterSettings chosen = choose_automatic(FilterSettings{}, sigma_hat);
       const EvalMethod as =
           chosen.method == Method::nlpm
               ? (chosen.nlpm_range != 0 ? EvalMethod::nlpm_robust : EvalMethod::nlpm)
