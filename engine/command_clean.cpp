@@ -52,16 +52,9 @@ RunSummary clean_files(const std::vector<SourceFile>& files, const std::string& 
 }
 
 int run_clean(const CleanCommand& command) {
-  // The output folder may sit inside a source folder: an earlier run's output is not input.
-  SourceList sources = collect_bvh_sources(command.sources, command.output_dir);
-  for (const SourceFile& file : sources.files) {
-    std::error_code ec;
-    const auto written = std::filesystem::weakly_canonical(
-        std::filesystem::path(command.output_dir) / file.relative, ec);
-    if (written == std::filesystem::weakly_canonical(file.path, ec))
-      sources.errors.push_back(file.path.string() +
-                               ": the output would overwrite this input; choose another -o");
-  }
+  // The output folder may sit inside a source folder, or be one: an earlier run's output is not
+  // input, and no input is overwritten.
+  const SourceList sources = collect_bvh_sources(command.sources, command.output_dir);
   for (const auto& e : sources.errors) fmt::print(stderr, "mocap-clean: clean: {}\n", e);
   if (!sources.errors.empty()) return 2;
   if (sources.files.empty()) {

@@ -17,16 +17,21 @@ bool has_bvh_extension(const std::filesystem::path& p) {
 }  // namespace
 
 SourceList collect_bvh_sources(const std::vector<std::string>& arguments,
-                               const std::filesystem::path& skip_folder) {
+                               const std::filesystem::path& output_folder) {
   namespace fs = std::filesystem;
   SourceList out;
   std::map<std::string, std::pair<fs::path, fs::path>> seen;  // relative -> (canonical, given)
   std::error_code ec;
-  const fs::path skip = skip_folder.empty() ? fs::path{} : fs::weakly_canonical(skip_folder, ec);
+  const fs::path output =
+      output_folder.empty() ? fs::path{} : fs::weakly_canonical(output_folder, ec);
   auto add = [&](const fs::path& path, const fs::path& relative) {
     std::error_code canonical_ec;
     const fs::path file = fs::weakly_canonical(path, canonical_ec);
     std::string rel = relative.generic_string();
+    std::error_code output_ec;
+    if (!output.empty() && fs::weakly_canonical(output / rel, output_ec) == file)
+      out.errors.push_back(path.string() +
+                           ": the output would overwrite this input; choose another -o");
     const auto [it, inserted] = seen.emplace(rel, std::pair{file, path});
     if (inserted)
       out.files.push_back({path, std::move(rel)});
@@ -41,8 +46,8 @@ SourceList collect_bvh_sources(const std::vector<std::string>& arguments,
                path, fs::directory_options::skip_permission_denied, ec);
            !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
         std::error_code entry_ec;
-        if (!skip.empty() && it->is_directory(entry_ec) &&
-            fs::weakly_canonical(it->path(), entry_ec) == skip) {
+        if (!output.empty() && it->is_directory(entry_ec) &&
+            fs::weakly_canonical(it->path(), entry_ec) == output) {
           it.disable_recursion_pending();  // the output of an earlier run
           continue;
         }

@@ -20,10 +20,10 @@ struct SourceList {
 // A file argument keeps its own name; a folder argument contributes every *.bvh below it
 // (case-insensitive extension) relative to the folder. Symlinked folders are not followed.
 // The same file reached twice counts once; two different files that would keep the same
-// relative path are an error (one would be lost). Nothing below `skip_folder` (e.g. the output
-// folder of `clean`, inside its source folder) is collected, so a run does not read what an
-// earlier run wrote.
+// relative path are an error (one would be lost). With an `output_folder` (clean's -o): a file
+// it would overwrite (output_folder / relative is the file itself) is an error, and nothing below
+// it is collected, so a run does not read what an earlier run wrote.
 SourceList collect_bvh_sources(const std::vector<std::string>& arguments,
-                               const std::filesystem::path& skip_folder = {});
+                               const std::filesystem::path& output_folder = {});
 
 }  // namespace mocap::engine
