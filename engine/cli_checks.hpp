@@ -5,18 +5,25 @@
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdlib>
+#include <optional>
 #include <string>
 
 namespace mocap::engine {
+
+// The whole of `text` as a finite number, else nullopt.
+inline std::optional<double> finite_number(const std::string& text) {
+  char* end = nullptr;
+  const double x = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || !std::isfinite(x)) return std::nullopt;
+  return x;
+}
 
 namespace detail {
 inline CLI::Validator number_check(bool allow_zero, const char* name) {
   return CLI::Validator(
       [allow_zero](std::string& value) -> std::string {
-        char* end = nullptr;
-        const double x = std::strtod(value.c_str(), &end);
-        const bool number = end != value.c_str() && *end == '\0' && std::isfinite(x);
-        if (number && (x > 0 || (allow_zero && x == 0))) return "";
+        const std::optional<double> x = finite_number(value);
+        if (x && (*x > 0 || (allow_zero && *x == 0))) return "";
         return std::string("must be a number ") + (allow_zero ? ">= 0" : "> 0") + ", got '" +
                value + "'";
       },

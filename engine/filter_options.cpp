@@ -1,7 +1,5 @@
 #include "engine/filter_options.hpp"
 
-#include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <string>
 
@@ -71,11 +69,8 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "noise) or a width in radians: a joint that disagrees cannot drag the others")
       ->check([](const std::string& v) -> std::string {
         if (v == "off" || v == "auto") return "";
-        char* end = nullptr;
-        const double x = std::strtod(v.c_str(), &end);
-        return end != v.c_str() && *end == '\0' && x > 0 && std::isfinite(x)
-                   ? ""
-                   : "expected off, auto or a positive width in radians, got " + v;
+        const std::optional<double> x = finite_number(v);
+        return x && *x > 0 ? "" : "expected off, auto or a positive width in radians, got " + v;
       })
       ->capture_default_str()
       ->group("Filter");
