@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "kernels/simd/nlpm_simd.hpp"
+#include "kernels/translation_filter.hpp"
 
 namespace mocap {
 namespace {
@@ -20,6 +21,33 @@ std::string number(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%g", value);
   return buffer;
+}
+
+// The translations of io's slice (nlpm.hpp, "Translations"): the Gaussian of
+// translation_sigma_t frames on the joints with position channels, a copy elsewhere (and
+// everywhere when translation_sigma_t is 0).
+void filter_translations(const MotionIO& io, const NlpmParams& params) {
+  if (!io.has_translations()) return;
+  const int frames = io.translations.frames;
+  const int begin = io.frame_begin, end = io.frame_stop();
+  const std::size_t n = static_cast<std::size_t>(frames);
+  std::vector<Vec3> path(n), path_out(n);
+  CurveScratch scratch;
+  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+    const bool filtered =
+        io.translated_joints[std::size_t(j)] != 0 && params.translation_sigma_t > 0 && frames > 1;
+    if (!filtered) {
+      for (int t = begin; t < end; ++t)
+        std::copy_n(io.translations.at(t, j), 3, io.filtered_translations.at(t, j));
+      continue;
+    }
+    for (int t = 0; t < frames; ++t) path[std::size_t(t)] = load_vec3(io.translations.at(t, j));
+    bilateral_filter_translations(path, params.translation_sigma_t, INFINITY,
+                                  params.translation_reach(), 1, params.boundary, path_out, begin,
+                                  end, scratch);
+    for (int t = begin; t < end; ++t)
+      store_vec3(path_out[std::size_t(t)], io.filtered_translations.at(t, j));
+  }
 }
 
 // A one-frame clip has no s != t: its output is its input.
@@ -105,16 +133,6 @@ void write_frame(const NlpmJob& job, long t, long s_begin, long s_end,
       if (dot(out, qt) < 0) out = negate(out);  // keep the input's hemisphere
     }
     store_quat(out, io.filtered_rotations.at(frame, j));
-
-    if (!io.has_translations()) continue;
-    if (io.translated_joints[std::size_t(j)] == 0) {
-      std::copy_n(io.translations.at(frame, j), 3, io.filtered_translations.at(frame, j));
-      continue;
-    }
-    Vec3 p;
-    for (long s = s_begin; s < s_end; ++s)
-      p += weights[std::size_t(s - s_begin)] * load_vec3(io.translations.at(int(s), j));
-    store_vec3(inv_sum * p, io.filtered_translations.at(frame, j));
   }
 }
 
@@ -188,7 +206,15 @@ Status NlpmParams::validate() const {
         "range_sigma > 0 needs space tangent (the log space is the paper's, "
         "for comparison only), got space " +
         std::string(to_string(space)));
+  if (!(translation_sigma_t >= 0) || !(translation_sigma_t <= kNlpmMaxRadius))
+    return Status::error("translation_sigma_t must be in [0, " + std::to_string(kNlpmMaxRadius) +
+                         "] frames (0 = translations unchanged), got " +
+                         number(translation_sigma_t));
   return {};
+}
+
+int NlpmParams::translation_reach() const {
+  return int(std::ceil(3.0 * translation_sigma_t));
 }
 
 std::vector<int> nlpm_distance_joints(std::span<const std::uint8_t> mask, int joints) {
@@ -217,6 +243,7 @@ Status NlpmJob::run() const {
     copy_slice(io);
     return {};
   }
+  filter_translations(io, params);
   if (implementation == Implementation::fast && params.space == NlpmSpace::tangent) {
     simd::nlpm_tangent(*this);
     return {};

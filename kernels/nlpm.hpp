@@ -7,7 +7,6 @@
 //     f(t, s)   = exp(-(D(t, s) - D_min(t)) / (2 h^2)),  s != t,  s in [t-K, t+K] ∩ [0, F)
 //     f(t, t)   = max_{s != t} f(t, s)   (= 1)
 //     q'[t][j]  = q[t][j] Exp( sum_s f(t,s) Log(q[t][j]^-1 q[s][j]) / sum_s f(t,s) )   all joints
-//     p'[t][j]  = sum_s f(t,s) p[s][j] / sum_s f(t,s)                      translated joints
 //
 // Option range_sigma > 0, the robust (non-local bilateral) form, which neither paper has: each
 // joint's weights also carry a range term in that joint's own geodesic distance (spec
@@ -16,17 +15,22 @@
 //
 //     w_j(t, s) = f(t,s) exp(-d(q[t][j], q[s][j])^2 / (2 range_sigma^2)),  w_j(t, t) = f(t, t)
 //     q'[t][j]  = q[t][j] Exp( sum_s w_j(t,s) Log(q[t][j]^-1 q[s][j]) / sum_s w_j(t,s) )
-//     p'[t][j]  = sum_s f(t,s) p[s][j] / sum_s f(t,s)                      (unchanged)
 //
-// Translations keep the whole-pose weights: range_sigma is an angle, a Euclidean range term would
-// need its own length scale in the file's unit (bof's sigma_p, infinite by default), and the
-// garbage the term is for (flipping, popping joints) lives in the rotations, not in the root's
-// path. The range term only vetoes, joint by joint, frames that f(t, s) picked: where a garbage
-// joint inside the pose distance misled f (toward frames whose garbage matches), it keeps the other
-// joints from averaging far-off poses in, but it cannot restore the weights f would have had
-// (NlpmJob::distance_joints keeps such a joint out of f). range_sigma = 0 stays the default: on
-// clean synthetic motion with clean f the term trades variance for bias and loses (tests/
-// nlpm_test.cpp, NlpmRange.*, prints the measurements).
+// range_sigma = 0 stays the default: on clean synthetic motion with clean f the term trades
+// variance for bias and loses (tests/nlpm_test.cpp, NlpmRange.* print the measurements).
+//
+// Translations (spec "Translations"; its first version's pose-weighted mean of p[s] is withdrawn):
+// a Gaussian of translation_sigma_t frames along time, the same for every frame,
+//
+//     p'[t][j]  = sum_{r=-k}^{k} exp(-r^2 / (2 s^2)) p[t+r][j] / sum_r exp(-r^2 / (2 s^2)),
+//                 s = translation_sigma_t, k = ceil(3 s), boundary-extended like the rotations,
+//
+// because pose similarity says nothing about where in space a pose is: f(t, s) is not symmetric in
+// s - t, so its mean of p[s] drags the root toward the frames that look alike (a 2.6 cm sawtooth on
+// a 30 fps walk). Symmetric, normalised weights reproduce p = a + v t exactly away from the ends,
+// and a Gaussian's gain is at most 1 at every frequency, so it does not raise the jitter (RMS
+// second difference) of a clean capture. The engine derives s from the estimated translation noise
+// (engine's automatic rules); 0 leaves translations as they are.
 //
 // This is the fast form of the spec: the band E[u][delta] = e(u, u + delta) is evaluated once per
 // (u, |delta|), and D(t, t + delta) is a running box sum of E[.][delta] along t. nlpm_direct.hpp
@@ -52,9 +56,13 @@ struct NlpmParams {
   // rad; 0 = off: exactly the spec's nlpm (bit for bit as without the option). > 0: the range
   // term above with sigma_g = range_sigma (tangent space only; the log space is the paper's).
   double range_sigma = 0;
+  // frames; the Gaussian of the translated joints (above); 0 = translations unchanged.
+  double translation_sigma_t = 1.0;
+  int translation_reach() const;  // ceil(3 translation_sigma_t)
 
   // K >= 1, P >= 0 (both at most kNlpmMaxRadius), h >= 0 and finite (0 = still to be derived),
-  // range_sigma >= 0 and finite, and range_sigma > 0 only with space tangent.
+  // range_sigma >= 0 and finite, and range_sigma > 0 only with space tangent;
+  // translation_sigma_t >= 0, finite and at most kNlpmMaxRadius.
   Status validate() const;
 };
 

@@ -95,13 +95,19 @@ Status nlpm_direct(const NlpmParams& params, const MotionIO& io,
       }
       store_quat(out, io.filtered_rotations.at(int(t), j));
       if (!io.has_translations()) continue;
-      Vec3 p;
-      if (io.translated_joints[std::size_t(j)] != 0) {
-        for (long s = s_begin; s < s_end; ++s)
-          p += f[std::size_t(s - s_begin)] * load_vec3(io.translations.at(int(s), j));
-        p = (1.0 / f_sum) * p;
-      } else {
-        p = load_vec3(io.translations.at(int(t), j));
+      // Translations: the Gaussian of nlpm.hpp, summed literally from extended samples.
+      Vec3 p = load_vec3(io.translations.at(int(t), j));
+      const double ts = params.translation_sigma_t;
+      if (io.translated_joints[std::size_t(j)] != 0 && ts > 0 && frames > 1) {
+        const int k = params.translation_reach();
+        Vec3 sum;
+        double norm_sum = 0;
+        for (int r = -k; r <= k; ++r) {
+          const double m = std::exp(-double(r) * r / (2 * ts * ts));
+          sum += m * extended_translation(io.translations, j, t + r, params.boundary);
+          norm_sum += m;
+        }
+        p = (1.0 / norm_sum) * sum;
       }
       store_vec3(p, io.filtered_translations.at(int(t), j));
     }

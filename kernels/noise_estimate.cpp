@@ -43,3 +43,60 @@ NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_
 }
 
 }  // namespace mocap
+
+namespace mocap {
+
+TranslationNoise estimate_translation_noise(TranslationView translations,
+                                            std::span<const std::uint8_t> translated_joints,
+                                            double frame_time) {
+  TranslationNoise out;
+  const int frames = translations.frames;
+  if (translations.empty() || frames < 4 || !(frame_time > 0)) return out;
+  const double smoothing = 0.1 / frame_time;  // frames
+  const int reach = int(std::ceil(3 * smoothing));
+  std::vector<double> mask(std::size_t(2 * reach + 1));
+  double mask_sum = 0;
+  for (int r = -reach; r <= reach; ++r)
+    mask_sum += mask[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (smoothing * smoothing));
+  for (int j = 0; j < translations.joints; ++j) {
+    if (std::size_t(j) >= translated_joints.size() || translated_joints[std::size_t(j)] == 0)
+      continue;
+    std::vector<double> c;
+    c.reserve(std::size_t(frames) * 3);
+    for (int t = 1; t + 2 < frames; ++t)
+      for (int k = 0; k < 3; ++k)
+        c.push_back(translations.at(t + 2, j)[k] - 3.0 * translations.at(t + 1, j)[k] +
+                    3.0 * translations.at(t, j)[k] - translations.at(t - 1, j)[k]);
+    std::vector<double> scratch = c;
+    const double centre = median(scratch);
+    for (double& v : c) v = std::abs(v - centre);
+    const double sigma = 1.4826 * median(c) / std::sqrt(20.0);
+    if (!(sigma > out.sigma) && out.sigma > 0) continue;
+    // The smoothed trajectory (mirrored at the ends), then its RMS second difference.
+    std::vector<Vec3> smooth(static_cast<std::size_t>(frames));
+    const long period = 2L * (frames - 1);
+    for (int t = 0; t < frames; ++t) {
+      Vec3 acc;
+      for (int r = -reach; r <= reach; ++r) {
+        long s = ((long(t) + r) % period + period) % period;
+        if (s >= frames) s = period - s;
+        acc += mask[std::size_t(r + reach)] * load_vec3(translations.at(int(s), j));
+      }
+      smooth[std::size_t(t)] = (1.0 / mask_sum) * acc;
+    }
+    double sum = 0;
+    int n = 0;
+    // Away from the ends, where the mirror folds the trajectory back.
+    for (int t = std::max(1, reach); t + 1 < frames - reach; ++t) {
+      const Vec3 a =
+          smooth[std::size_t(t + 1)] - 2.0 * smooth[std::size_t(t)] + smooth[std::size_t(t - 1)];
+      sum += dot(a, a);
+      n += 3;
+    }
+    out.sigma = sigma;
+    out.accel = n > 0 ? std::sqrt(sum / n) : -1.0;
+  }
+  return out;
+}
+
+}  // namespace mocap

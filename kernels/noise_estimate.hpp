@@ -32,4 +32,22 @@ struct NoiseEstimate {
 NoiseEstimate estimate_noise(RotationView rotations,
                              std::span<const std::uint8_t> skip_joints = {});
 
+// The noise of the translated joints' trajectories (position channels), for nlpm's translation
+// filter (engine's automatic rules):
+//   sigma  = max over the translated joints of 1.4826 MAD(c) / sqrt(20), c the components of the
+//            third differences p[t+2] - 3 p[t+1] + 3 p[t] - p[t-1] (i.i.d. noise of deviation
+//            sigma gives them variance 20 sigma^2; a trajectory's own jerk per frame^3 is small
+//            even at 30 fps, where its second differences are not);
+//   accel  = the RMS per component of the second differences of the same joint after a Gaussian
+//            of 0.1 s, which removes that noise and keeps the motion: the trajectory's own
+//            acceleration per frame^2 (the largest joint's sigma decides which joint).
+// File units. Needs 4 frames; {0, 0} without translated joints or frames.
+struct TranslationNoise {
+  double sigma = 0;  // file units
+  double accel = 0;  // file units per frame^2; -1 = not measurable (a clip shorter than 0.2 s)
+};
+TranslationNoise estimate_translation_noise(TranslationView translations,
+                                            std::span<const std::uint8_t> translated_joints,
+                                            double frame_time);
+
 }  // namespace mocap

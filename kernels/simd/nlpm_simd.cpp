@@ -214,7 +214,7 @@ double window_weights(long t, long frames, int search, int patch, double h,
 // The weights of one chunk's output frames [begin, end).
 struct ChunkWeights {
   std::size_t wstride = 0;
-  std::vector<double> f;       // [frame][2K + 1], for the translations
+  std::vector<double> f;       // [frame][2K + 1], the weights in double
   std::vector<float> rows;     // [2K + 1][wstride], for the vector average
   std::vector<float> inv_sum;  // [wstride]
   std::vector<double> inv_sum_d;
@@ -225,7 +225,6 @@ struct ChunkWeights {
 void average_chunk(const NlpmJob& job, int search, long begin, long end, const ChunkWeights& w,
                    const ChunkCurves& curves, std::vector<std::vector<float>>& out) {
   const MotionIO& io = job.io;
-  const int frames = io.rotations.frames;
   const std::size_t count = std::size_t(end - begin);
   out.resize(std::size_t(io.joint_stop() - io.joint_begin));
   for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
@@ -248,22 +247,6 @@ void average_chunk(const NlpmJob& job, int search, long begin, long end, const C
   for (std::size_t i = 0; i < count; ++i) {
     float* row = io.filtered_rotations.at(int(begin + long(i)), io.joint_begin);
     for (std::size_t k = 0; k < planes.size(); ++k) row[k] = planes[k][i];
-  }
-
-  if (!io.has_translations()) return;
-  const std::size_t width = 2 * std::size_t(search) + 1;
-  for (long t = begin; t < end; ++t) {
-    const double* f = &w.f[std::size_t(t - begin) * width];
-    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-      if (io.translated_joints[std::size_t(j)] == 0) {
-        std::copy_n(io.translations.at(int(t), j), 3, io.filtered_translations.at(int(t), j));
-        continue;
-      }
-      Vec3 p;
-      for (long s = std::max(0L, t - search); s < std::min(long(frames), t + search + 1); ++s)
-        p += f[s - t + search] * load_vec3(io.translations.at(int(s), j));
-      store_vec3(w.inv_sum_d[std::size_t(t - begin)] * p, io.filtered_translations.at(int(t), j));
-    }
   }
 }
 

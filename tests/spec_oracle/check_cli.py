@@ -86,6 +86,8 @@ def automatic(q, p, run):
     return run(s) if s else (q.copy(), p.copy())
 
 
+BODY_HEIGHT = [0.0]  # the current clip's, for the automatic translation width
+
 CONFIGS = [
     ("bof defaults",
      ["--method", "bof", "--sigma-t", "1", "--sigma-g", "0.2", "--iterations", "5",
@@ -106,17 +108,21 @@ CONFIGS = [
       "--boundary", "extrapolate"],
      lambda q, p, ft: sf.bof(q, p, 1.0, 0.5, 2, 3, "extrapolate", "gaussian")),
     ("nlpm h 0.03 tangent",
-     ["--method", "nlpm", "-K", "10", "-P", "5", "--h", "0.03", "--space", "tangent"],
-     lambda q, p, ft: sf.nlpm(q, p, 10, 5, 0.03, "mirror", "tangent")),
+     ["--method", "nlpm", "-K", "10", "-P", "5", "--h", "0.03", "--space", "tangent",
+      "--translation-sigma-t", "2"],
+     lambda q, p, ft: sf.nlpm(q, p, 10, 5, 0.03, "mirror", "tangent", translation_sigma_t=2)),
     ("nlpm h 0.03 --space log",
-     ["--method", "nlpm", "--h", "0.03", "--space", "log"],
-     lambda q, p, ft: sf.nlpm(q, p, 10, 5, 0.03, "mirror", "log")),
+     ["--method", "nlpm", "--h", "0.03", "--space", "log", "--translation-sigma-t", "1"],
+     lambda q, p, ft: sf.nlpm(q, p, 10, 5, 0.03, "mirror", "log", translation_sigma_t=1)),
     ("nlpm K3 P2 h 0.05 extrapolate",
-     ["--method", "nlpm", "-K", "3", "-P", "2", "--h", "0.05", "--boundary", "extrapolate"],
-     lambda q, p, ft: sf.nlpm(q, p, 3, 2, 0.05, "extrapolate", "tangent")),
+     ["--method", "nlpm", "-K", "3", "-P", "2", "--h", "0.05", "--boundary", "extrapolate",
+      "--translation-sigma-t", "3.5"],
+     lambda q, p, ft: sf.nlpm(q, p, 3, 2, 0.05, "extrapolate", "tangent",
+                              translation_sigma_t=3.5)),
     ("nlpm K6 P0 h 0.02 hold",
-     ["--method", "nlpm", "-K", "6", "-P", "0", "--h", "0.02", "--boundary", "hold"],
-     lambda q, p, ft: sf.nlpm(q, p, 6, 0, 0.02, "hold", "tangent")),
+     ["--method", "nlpm", "-K", "6", "-P", "0", "--h", "0.02", "--boundary", "hold",
+      "--translation-sigma-t", "0"],
+     lambda q, p, ft: sf.nlpm(q, p, 6, 0, 0.02, "hold", "tangent", translation_sigma_t=0)),
     ("gaussian sigma 1",
      ["--method", "gaussian", "--sigma-t", "1"],
      lambda q, p, ft: sf.gaussian_filter(q, p, 1.0, 0, "mirror")),
@@ -158,11 +164,13 @@ CONFIGS = [
      ["--method", "moving-mean"],
      lambda q, p, ft: sf.moving_mean_filter(q, p, 5, "mirror")),
     # Automatic parameters, by the rules the README documents (section "Automatic parameters"):
-    # nlpm h = 1.2 sigma_hat; bof sigma_g = 3 sigma_hat, sigma_t = max(1, 10 sqrt(sigma_hat)),
+    # nlpm h = 1.2 sigma_hat and the translations' Gaussian from their estimated noise; bof sigma_g = 3 sigma_hat, sigma_t = max(1, 10 sqrt(sigma_hat)),
     # with sigma_hat the spec's noise estimate of the clip.
     ("nlpm, no options (h = 1.2 sigma_hat)",
      ["--method", "nlpm"],
-     lambda q, p, ft: automatic(q, p, lambda s: sf.nlpm(q, p, 10, 5, 1.2 * s))),
+     lambda q, p, ft: automatic(q, p, lambda s: sf.nlpm(
+         q, p, 10, 5, 1.2 * s,
+         translation_sigma_t=sf.automatic_translation_sigma_t(p, ft, BODY_HEIGHT[0])))),
     ("bof automatic (sigma_g = 3 sigma_hat)",
      ["--method", "bof", "--sigma-g", "0", "--sigma-t", "0"],
      lambda q, p, ft: automatic(q, p, lambda s: sf.bof(q, p, max(1.0, 10 * math.sqrt(s)), 3 * s))),
@@ -368,6 +376,7 @@ def main():
             if o.channels != m.channels:
                 bad = [m.names[j] for j in range(m.J) if o.channels[j] != m.channels[j]]
                 problems.append("%s: channel layout changed on %s" % (name, ", ".join(bad[:5])))
+            BODY_HEIGHT[0] = sf.rest_height(m)
             qo, po = oracle(m.q, m.p.copy(), m.frame_time)
             d = sf.geodesic(o.q, qo)
             ft = m.frame_time

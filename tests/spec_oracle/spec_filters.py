@@ -420,7 +420,74 @@ def nlpm_weights(q, K, P, h, boundary="mirror", space="tangent", dist_joints=Non
     return f
 
 
-def nlpm(q, p, K=10, P=5, h=0.03, boundary="mirror", space="tangent", translations=True):
+def gaussian_pos(p, sigma_t, boundary):
+    """nlpm's translations (README "Translations"; the spec's first pose-weighted mean of p[s] is
+    withdrawn): p'[t] = sum_r exp(-r^2 / (2 s^2)) p[t+r] / sum_r exp(-r^2 / (2 s^2)),
+    r in [-ceil(3 s), ceil(3 s)], boundary-extended; s = 0 leaves p as it is."""
+    if sigma_t <= 0 or p.shape[0] < 2:
+        return p.copy()
+    k = int(math.ceil(3 * sigma_t))
+    r = np.arange(-k, k + 1, dtype=float)
+    m = np.exp(-r * r / (2 * sigma_t * sigma_t))
+    return correlate_pos(p, m / m.sum(), boundary)
+
+
+def translation_noise(p, frame_time):
+    """(sigma, accel) of the translations (README "Translations", automatic width): sigma = max
+    over joints of 1.4826 MAD of the third-difference components / sqrt(20); accel = that joint's
+    RMS second-difference component after a Gaussian of 0.1 s (mirror), away from the ends."""
+    F, J = p.shape[:2]
+    if F < 4:
+        return 0.0, 0.0
+    best, accel = 0.0, 0.0
+    s = 0.1 / frame_time
+    k = int(math.ceil(3 * s))
+    r = np.arange(-k, k + 1, dtype=float)
+    m = np.exp(-0.5 * r * r / (s * s))
+    for j in range(J):
+        x = p[:, j].astype(float)
+        c = (x[3:] - 3 * x[2:-1] + 3 * x[1:-2] - x[:-3]).reshape(-1)
+        sigma = 1.4826 * np.median(np.abs(c - np.median(c))) / math.sqrt(20.0)
+        if not (sigma > best) and best > 0:
+            continue
+        ext = x[mirror_index(np.arange(-k, F + k), F)]
+        smooth = sum(m[i] * ext[i:i + F] for i in range(2 * k + 1)) / m.sum()
+        a = smooth[2:] - 2 * smooth[1:-1] + smooth[:-2]     # centred at t = 1 .. F-2
+        t = np.arange(1, F - 1)
+        keep = (t >= max(1, k)) & (t + 1 < F - k)
+        best = sigma
+        accel = float(np.sqrt(np.mean(a[keep] ** 2))) if np.any(keep) else -1.0
+    return float(best), accel
+
+
+def rest_height(m):
+    """The skeleton's vertical extent in its rest pose (offsets only, End Sites included)."""
+    pos = []
+    ys = []
+    for j, pa in enumerate(m.parents):
+        here = np.zeros(3) if pa < 0 else pos[pa] + np.asarray(m.offsets[j], dtype=float)
+        pos.append(here)
+        ys.append(here[1])
+        for e in m.end_sites[j]:
+            ys.append((here + np.asarray(e, dtype=float))[1])
+    return float(max(ys) - min(ys)) if ys else 0.0
+
+
+def automatic_translation_sigma_t(p, frame_time, body_height):
+    """README "Translations": 0 unless the positions are noisy (sigma > 0.0015 body heights) and
+    the clip is long enough to measure accel; else 1.3 (sigma^2 / (2 sqrt(pi) accel^2))^(1/5)
+    frames, at most 0.2 s."""
+    sigma, accel = translation_noise(p, frame_time)
+    if not (body_height > 0 and sigma > 0.0015 * body_height) or accel < 0:
+        return 0.0
+    cap = 0.2 / frame_time
+    if accel == 0:
+        return cap
+    return min(1.3 * (sigma * sigma / (2 * math.sqrt(math.pi) * accel * accel)) ** 0.2, cap)
+
+
+def nlpm(q, p, K=10, P=5, h=0.03, boundary="mirror", space="tangent", translations=True,
+         translation_sigma_t=1.0):
     F, J = q.shape[:2]
     if F == 1:
         return q.copy(), (None if p is None else p.copy())
@@ -428,7 +495,6 @@ def nlpm(q, p, K=10, P=5, h=0.03, boundary="mirror", space="tangent", translatio
     tot = f.sum(axis=1)
     t = np.arange(F)
     acc = np.zeros((F, J, 3))
-    pacc = None if p is None else np.zeros_like(p)
     L = qlog(q) if space == "log" else None
     for di, delta in enumerate(range(-K, K + 1)):
         s = t + delta
@@ -439,8 +505,6 @@ def nlpm(q, p, K=10, P=5, h=0.03, boundary="mirror", space="tangent", translatio
             acc += w[:, None, None] * qlog(qmul(qinv(q), q[sc]))
         else:
             acc += w[:, None, None] * L[sc]
-        if pacc is not None:
-            pacc += w[:, None, None] * p[sc]
     mean = acc / tot[:, None, None]
     if space == "tangent":
         q2 = qmul(q, qexp(mean))
@@ -448,7 +512,7 @@ def nlpm(q, p, K=10, P=5, h=0.03, boundary="mirror", space="tangent", translatio
         q2 = qexp(mean)
     p2 = p
     if translations and p is not None:
-        p2 = pacc / tot[:, None, None]
+        p2 = gaussian_pos(p, translation_sigma_t, boundary)
     return q2, p2
 
 
