@@ -10,6 +10,7 @@
 #include "engine/clip_checks.hpp"
 #include "engine/clip_conditioning.hpp"
 #include "engine/interrupt.hpp"
+#include "engine/motion_check.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/progress.hpp"
 
@@ -21,6 +22,7 @@ struct ClipState {
   ResolvedSettings resolved;
   std::any prepared;  // the sink's form of the finished clip
   ClipConditioning conditioning;
+  MotionMeasure before, after;  // what a viewer sees, as read and as written
 };
 
 }  // namespace
@@ -49,6 +51,10 @@ RunSummary run_job(const Job& job) {
   tally.mode = settings.pops;
   tally.keep_garbage = settings.keep_garbage_joints;
   AutomaticTally automatic;
+  // Jitter and skating before and after: for filters (not the copy of --method none, nor the
+  // transforms of `noise`, whose point is to change the motion).
+  const bool measure = settings.method != Method::none && !job.transform;
+  MotionTally motion;
   PipelineStages stages;
   stages.count = selection.size();
   stages.read = [&](WorkItem& item) {
@@ -67,9 +73,14 @@ RunSummary run_job(const Job& job) {
     // Filters expect each joint's curve on one hemisphere (spec "Sign continuity"); a library
     // written by another tool may not be. Same rotations, so harmless for `none`.
     make_hemisphere_continuous(item.input.rotation_span());
+    MotionMeasure before;
+    if (measure) before = measure_motion(item.input);
     ClipConditioning conditioning = condition_clip(settings, item.input);
-    ClipState state{
-        resolve_for_clip(settings, item.input, conditioning.garbage), {}, std::move(conditioning)};
+    ClipState state{resolve_for_clip(settings, item.input, conditioning.garbage),
+                    {},
+                    std::move(conditioning),
+                    std::move(before),
+                    {}};
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);
@@ -87,6 +98,10 @@ RunSummary run_job(const Job& job) {
   };
   stages.finish = [&](WorkItem& item) {
     item.input = {};  // free the input early: only the output goes on
+    if (measure) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      state.after = measure_motion(item.output, &state.before);
+    }
     if (job.transform) {
       if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
         return item.fail(s.message());
@@ -109,6 +124,7 @@ RunSummary run_job(const Job& job) {
       const auto& state = std::any_cast<const ClipState&>(item.context);
       tally.add(item.name, item.output, state.conditioning);
       automatic.add(item.name, state.resolved);
+      if (measure) motion.add(item.name, state.before, state.after);
     } else {
       summary.failed.push_back({item.name, item.error});
     }
@@ -123,6 +139,7 @@ RunSummary run_job(const Job& job) {
   summary.interrupted = read < selection.size();
   if (settings.method != Method::none) tally.write_to(summary.extra);
   automatic.write_to(summary.extra);
+  motion.write_to(summary.extra);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }
