@@ -74,6 +74,16 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       })
       ->capture_default_str()
       ->group("Filter");
+  cmd.add_option("--translation-sigma-t", translation_sigma_t,
+                 "nlpm: Gaussian width in frames for the position channels (pose weights do not "
+                 "follow a trajectory), auto (from the estimated position noise) or 0 (keep)")
+      ->check([](const std::string& v) -> std::string {
+        if (v == "auto") return "";
+        const std::optional<double> x = finite_number(v);
+        return x && *x >= 0 ? "" : "expected auto or a width in frames >= 0, got " + v;
+      })
+      ->capture_default_str()
+      ->group("Filter");
   cmd.add_option("--order", order, "butterworth: filter order n")
       ->check(CLI::Range(1, 8))
       ->capture_default_str()
@@ -161,6 +171,8 @@ FilterSettings FilterOptions::settings() const {
   s.pops = pops.empty() ? method_default : parse_pops_mode(pops).value_or(method_default);
   s.keep_garbage_joints = garbage_joints == "keep";
   s.split_impossible = split_impossible;
+  s.nlpm.translation_sigma_t =
+      translation_sigma_t == "auto" ? kAutomaticTranslationSigma : std::stod(translation_sigma_t);
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;

@@ -6,6 +6,7 @@
 
 #include "engine/clip_conditioning.hpp"
 #include "engine/pipeline.hpp"
+#include "kernels/foot_contacts.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/noise_estimate.hpp"
 
@@ -77,6 +78,25 @@ LinearKind linear_kind(Method method) {
 
 }  // namespace
 
+double body_height(const io::Skeleton& skeleton) {
+  std::vector<std::pair<int, Vec3>> sites;
+  for (int j = 0; j < skeleton.joint_count(); ++j)
+    if (skeleton.end_sites[std::size_t(j)])
+      sites.push_back({j, *skeleton.end_sites[std::size_t(j)]});
+  return rest_height(skeleton.parents, skeleton.offsets, sites);
+}
+
+double automatic_translation_sigma_t(TranslationNoise noise, double frame_time,
+                                     double body_height) {
+  if (!has_noisy_positions(noise, body_height) || noise.accel < 0) return 0;
+  const double cap = kTranslationSigmaMaxSeconds / frame_time;
+  if (noise.accel == 0) return cap;
+  const double s =
+      kTranslationSigmaFactor *
+      std::pow(noise.sigma * noise.sigma / (2 * std::sqrt(kPi) * noise.accel * noise.accel), 0.2);
+  return std::min(s, cap);
+}
+
 BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, double frame_time) {
   if (params.sigma_g == 0) params.sigma_g = kBofAutoSigmaGFactor * sigma_hat;
   if (params.sigma_t == 0)
@@ -85,12 +105,25 @@ BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, do
   return params;
 }
 
-FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat) {
+bool has_noisy_positions(const TranslationNoise& noise, double body_height) {
+  return body_height > 0 && noise.sigma > kNoisyPositions * body_height;
+}
+
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
+                                bool noisy_positions, double frame_time) {
   FilterSettings s = settings;
-  if (sigma_hat < kAutoNlpmBelow) {
+  if (noisy_positions) {
+    s.method = Method::bof;
+    s.bilateral = BilateralParams{};
+    s.bilateral.boundary = settings.bilateral.boundary;
+    s.bilateral.sigma_g = kAutoSmoothSigmaGFactor * sigma_hat;
+    s.bilateral.sigma_t = 0;  // automatic_bilateral
+    s.bilateral.iterations = std::clamp(int(std::ceil(5.0 / (120.0 * frame_time) - 1e-9)), 2, 5);
+  } else if (sigma_hat < kAutoNlpmBelow) {
     s.method = Method::nlpm;
     s.nlpm = NlpmParams{};
     s.nlpm.boundary = settings.nlpm.boundary;
+    s.nlpm.translation_sigma_t = settings.nlpm.translation_sigma_t;
     s.nlpm_range = -1;  // automatic: kNlpmAutoRangeFactor sigma_hat
   } else {
     s.method = Method::bof;
@@ -122,6 +155,7 @@ Status FilterSettings::validate() const {
     case Method::nlpm: {
       NlpmParams p = nlpm;
       if (p.h == 0) p.h = 1;  // automatic: checked per clip
+      if (p.translation_sigma_t < 0) p.translation_sigma_t = 0;
       return p.validate();
     }
     default: {
@@ -162,6 +196,9 @@ nlohmann::json FilterSettings::to_json() const {
       j["h"] = nlpm.h == 0 ? nlohmann::json("auto") : nlohmann::json(nlpm.h);
       j["space"] = nlpm.space == NlpmSpace::log ? "log" : "tangent";
       j["range_sigma"] = nlpm_range < 0 ? nlohmann::json("auto") : nlohmann::json(nlpm_range);
+      j["translation_sigma_t"] = nlpm.translation_sigma_t < 0
+                                     ? nlohmann::json("auto")
+                                     : nlohmann::json(nlpm.translation_sigma_t);
       j["boundary"] = std::string(to_string(nlpm.boundary));
       break;
     case Method::gaussian:
@@ -226,12 +263,24 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
       return r;
     }
-    if (asked == Method::automatic) r.settings = choose_automatic(settings, noise.sigma);
+    if (asked == Method::automatic) {
+      std::vector<std::uint8_t> translated;
+      for (int j = 0; j < clip.joints(); ++j)
+        translated.push_back(clip.skeleton->has_translation(j) ? 1 : 0);
+      r.translation_noise =
+          estimate_translation_noise(clip.translation_view(), translated, clip.frame_time);
+      r.noisy_positions = has_noisy_positions(r.translation_noise, body_height(*clip.skeleton));
+      r.settings = choose_automatic(settings, noise.sigma, r.noisy_positions, clip.frame_time);
+    }
     FilterSettings& s = r.settings;
     s.linear.kind = linear_kind(s.method);
     if (s.method == Method::nlpm) {
       if (s.nlpm.h == 0) s.nlpm.h = kNlpmAutoFactor * noise.sigma;
       if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * noise.sigma;
+      if (asked == Method::automatic) {
+        s.nlpm.h = std::max(s.nlpm.h, kAutoNlpmMinH);
+        s.nlpm_range = std::max(s.nlpm_range, kAutoNlpmMinRange);
+      }
     }
     if (s.method == Method::bof)
       s.bilateral = automatic_bilateral(s.bilateral, noise.sigma, clip.frame_time);
@@ -239,6 +288,15 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       s.kalman.lambda = kalman_auto_lambda(noise.sigma, clip.frame_time);
   }
   r.settings.nlpm.range_sigma = std::max(0.0, r.settings.nlpm_range);
+  if (r.settings.method == Method::nlpm && r.settings.nlpm.translation_sigma_t < 0) {
+    std::vector<std::uint8_t> translated;
+    for (int j = 0; j < clip.joints(); ++j)
+      translated.push_back(clip.skeleton->has_translation(j) ? 1 : 0);
+    r.translation_noise =
+        estimate_translation_noise(clip.translation_view(), translated, clip.frame_time);
+    r.settings.nlpm.translation_sigma_t = automatic_translation_sigma_t(
+        r.translation_noise, clip.frame_time, body_height(*clip.skeleton));
+  }
   if (settings.split_impossible) {
     // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
     std::vector<std::uint8_t> flipping;

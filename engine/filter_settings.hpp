@@ -14,6 +14,7 @@
 #include "kernels/linear_filter.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/nlpm.hpp"
+#include "kernels/noise_estimate.hpp"
 #include "kernels/status.hpp"
 
 namespace mocap::engine {
@@ -57,6 +58,27 @@ inline constexpr double kBofAutoSigmaTFactor = 10.0;
 // `params` with its zero sigma_g / sigma_t replaced by the rule above.
 BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, double frame_time);
 
+// nlpm's translation Gaussian (NlpmParams::translation_sigma_t, kernels/nlpm.hpp), asked for with
+// --translation-sigma-t auto (the default). Translations without measurable noise (below
+// kNoisyPositions of the body's height, has_noisy_positions) are kept as they are: at 30 fps a
+// root's own curvature is large, and a Gaussian of even one frame raised the joint position error
+// of the shared clips by 10 % where their positions were clean (5.51 to 6.05 mm with 0.008 rad of
+// rotation noise); 0 also where the clip is too short to measure a. For a locally quadratic
+// trajectory of acceleration a
+// (per frame^2) under i.i.d. noise sigma, a Gaussian of width s has squared bias a^2 s^4 / 4 and
+// variance sigma^2 / (2 sqrt(pi) s); their sum is least at s* = (sigma^2 / (2 sqrt(pi) a^2))^(1/5).
+// At s* the noise left still carries 0.87 a of second difference, about the motion's own: the
+// rule widens s* by kTranslationSigmaFactor so a noisy root comes out with little more than its
+// true jitter (the error grows by a few per cent). sigma and a come from
+// estimate_translation_noise (kernels/noise_estimate.hpp). Capped at kTranslationSigmaMaxSeconds.
+inline constexpr double kAutomaticTranslationSigma = -1;  // in FilterSettings: "auto"
+inline constexpr double kTranslationSigmaFactor = 1.3;
+inline constexpr double kTranslationSigmaMaxSeconds = 0.2;
+double automatic_translation_sigma_t(TranslationNoise noise, double frame_time, double body_height);
+
+// The skeleton's height in its rest pose, End Sites included (file units).
+double body_height(const io::Skeleton& skeleton);
+
 // nlpm's automatic range term (NlpmParams::range_sigma), asked for with --nlpm-range auto:
 // range_sigma = kNlpmAutoRangeFactor * sigma_hat (README "Automatic parameters").
 inline constexpr double kNlpmAutoRangeFactor = 5.0;
@@ -74,7 +96,9 @@ struct FilterSettings {
   bool split_impossible = false;
   BilateralParams bilateral;
   LinearParams linear;
-  NlpmParams nlpm;                  // h == 0: derived per clip from the estimated noise
+  // h == 0: derived per clip from the estimated noise; translation_sigma_t < 0: likewise, from
+  // the translations' (automatic_translation_sigma_t).
+  NlpmParams nlpm{.translation_sigma_t = kAutomaticTranslationSigma};
   KalmanParams kalman;              // lambda == 0: derived per clip (kalman_auto_lambda)
   bool filter_translations = true;  // --translations filter|keep
   int shard_joints = 8;             // joint block of per-joint methods
@@ -86,9 +110,11 @@ struct FilterSettings {
 
 // The per-clip resolution of automatic parameters, done once on the whole clip before sharding.
 struct ResolvedSettings {
-  FilterSettings settings;  // method automatic: the method it chose
-  double noise_sigma = -1;  // estimated, when it was needed; -1 otherwise
-  bool unchanged = false;   // nothing to filter (1 frame, or no joint moves for automatic h)
+  FilterSettings settings;             // method automatic: the method it chose
+  double noise_sigma = -1;             // estimated, when it was needed; -1 otherwise
+  TranslationNoise translation_noise;  // estimated for auto and nlpm's automatic translation width
+  bool noisy_positions = false;        // auto: has_noisy_positions
+  bool unchanged = false;  // nothing to filter (1 frame, or no joint moves for automatic h)
   // Joints whose samples are copied as they came (garbage joints), one entry per joint; and the
   // joints nlpm's pose distance looks at (empty: all).
   std::vector<std::uint8_t> kept_joints, distance_joints;
@@ -112,8 +138,32 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
 //   sigma_hat < kAutoNlpmBelow:  nlpm, h = kNlpmAutoFactor sigma_hat, range = kNlpmAutoRangeFactor
 //                                sigma_hat, K = 10, P = 5
 //   otherwise:                   bof, automatic_bilateral
+//   noisy positions:             bof, sigma_g = kAutoSmoothSigmaGFactor sigma_hat, sigma_t as
+//                                automatic_bilateral, iterations ceil(5 fps / 120) in [2, 5]:
+//                                whatever sigma_hat
+// Noisy positions: the position channels' noise (estimate_translation_noise) above
+// kNoisyPositions of the body's height. Such a capture is a noisy solve, and what its viewer sees
+// is jitter: nlpm (and bof at 3 sigma_hat), the rotation-PSNR-best choices, staircase and left
+// 2.3-3.6x the clean capture's joint-position jitter at 0.02 rad + 0.4 % of the body; bof at 8
+// sigma_hat left 0.58x with a lower position error (6.66 against 7.76 mm), for 0.9 dB less
+// rotation PSNR (README, "Positions"). At 30 fps five iterations blur (jitter 2.02x, error
+// 12.36 mm); two left 1.40x and 11.07 mm. On rotation-only noise the PSNR-best branches stay. The
+// clean CMU clips measure 0.00004-0.00013 body heights at 120 fps, 0.0006 at most at 30 fps.
 inline constexpr double kAutoNlpmBelow = 0.06;
-FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat);
+inline constexpr double kAutoSmoothSigmaGFactor = 8.0;
+inline constexpr double kNoisyPositions = 0.0015;
+// Floors of auto's nlpm strength and range width. On a capture with no noise added (CMU clips:
+// sigma_hat 0.001-0.002 rad) h = 1.2 sigma_hat and a range of 5 sigma_hat are so selective that
+// which neighbours get weight changes from frame to frame: the output staircases, and the joint
+// positions came out with 1.04-1.79x the input's jitter and 1.3-2.3x its foot skating (clean, the
+// 9 shared clips, 120 fps). With these floors: jitter 0.24-1.04x, skating 0.47-1.21x (README,
+// "Positions").
+inline constexpr double kAutoNlpmMinH = 0.015;
+inline constexpr double kAutoNlpmMinRange = 0.1;
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
+                                bool noisy_positions = false, double frame_time = 1.0 / 120);
+// Whether a clip's position channels carry noise by the rule above (false without any).
+bool has_noisy_positions(const TranslationNoise& noise, double body_height);
 
 // The output slices of a clip: joint blocks for per-joint methods, time blocks for nlpm.
 std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int joints);

@@ -80,6 +80,23 @@ void add_noise(const GaussianNoise& noise, RotationSpan rotations) {
   make_hemisphere_continuous(rotations);
 }
 
+Status PositionNoise::validate() const {
+  if (!std::isfinite(sigma) || sigma < 0)
+    return Status::error("position noise sigma must be finite and >= 0");
+  return {};
+}
+
+void add_noise(const PositionNoise& noise, TranslationSpan translations,
+               std::span<const std::uint8_t> translated) {
+  NormalSource normal(noise.seed);
+  for (int t = 0; t < translations.frames; ++t)
+    for (int j = 0; j < translations.joints; ++j) {
+      if (std::size_t(j) >= translated.size() || translated[std::size_t(j)] == 0) continue;
+      float* p = translations.at(t, j);
+      for (int c = 0; c < 3; ++c) p[c] = float(p[c] + noise.sigma * normal.next());
+    }
+}
+
 int add_noise(const ImpulseNoise& noise, RotationSpan rotations) {
   std::mt19937_64 rng(noise.seed);
   int popped = 0;

@@ -9,6 +9,7 @@
 // platforms whose libm rounds log/cos/sin differently in the last place: exchange noisy files,
 // not seeds, to compare implementations (as the spec says).
 #include <cstdint>
+#include <span>
 
 #include "kernels/status.hpp"
 #include "kernels/tensor.hpp"
@@ -17,6 +18,14 @@ namespace mocap {
 
 struct GaussianNoise {
   double sigma = 0.03;  // rad, per tangent component
+  std::uint64_t seed = 1;
+  Status validate() const;  // sigma finite and >= 0
+};
+
+// Position noise of the spec's "Noise models": p[t][j] += n, n ~ N(0, sigma^2 I_3), on the joints
+// with position channels (translated[j] != 0), sigma in the file's unit.
+struct PositionNoise {
+  double sigma = 0;  // file units
   std::uint64_t seed = 1;
   Status validate() const;  // sigma finite and >= 0
 };
@@ -32,5 +41,7 @@ struct ImpulseNoise {
 void add_noise(const GaussianNoise& noise, RotationSpan rotations);
 // Returns the number of popped samples.
 int add_noise(const ImpulseNoise& noise, RotationSpan rotations);
+void add_noise(const PositionNoise& noise, TranslationSpan translations,
+               std::span<const std::uint8_t> translated);
 
 }  // namespace mocap

@@ -186,9 +186,14 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   const auto resolved = engine::resolve_for_clip(s, clip, c.garbage);
   ASSERT_FALSE(resolved.unchanged);
   EXPECT_EQ(resolved.settings.method, Method::nlpm);  // jitter of 0.003 rad: low noise
-  EXPECT_NEAR(resolved.settings.nlpm.h, engine::kNlpmAutoFactor * resolved.noise_sigma, 1e-12);
-  EXPECT_NEAR(resolved.settings.nlpm.range_sigma,
-              engine::kNlpmAutoRangeFactor * resolved.noise_sigma, 1e-12);
+  // At this light a noise auto's floors decide (engine/filter_settings.hpp).
+  EXPECT_NEAR(resolved.settings.nlpm.h,
+              std::max(engine::kNlpmAutoFactor * resolved.noise_sigma, engine::kAutoNlpmMinH),
+              1e-12);
+  EXPECT_NEAR(
+      resolved.settings.nlpm.range_sigma,
+      std::max(engine::kNlpmAutoRangeFactor * resolved.noise_sigma, engine::kAutoNlpmMinRange),
+      1e-12);
   // The flipping joint is left out of the noise estimate: it stays near the added jitter.
   EXPECT_GT(resolved.noise_sigma, 0.001);
   EXPECT_LT(resolved.noise_sigma, 0.006);
@@ -277,9 +282,12 @@ TEST_F(ConditioningCli, TheSummarySaysWhatTheAutomaticParametersBecame) {
   const double sigma = chosen["noise_sigma"].get<double>();
   EXPECT_GT(sigma, 0.001);
   EXPECT_LT(sigma, 0.006);
-  EXPECT_NEAR(chosen["parameters"]["h"].get<double>(), engine::kNlpmAutoFactor * sigma, 1e-12);
+  // auto's floors (engine/filter_settings.hpp) hold at this light a noise.
+  EXPECT_NEAR(chosen["parameters"]["h"].get<double>(),
+              std::max(engine::kNlpmAutoFactor * sigma, engine::kAutoNlpmMinH), 1e-12);
   EXPECT_NEAR(chosen["parameters"]["range_sigma"].get<double>(),
-              engine::kNlpmAutoRangeFactor * sigma, 1e-12);
+              std::max(engine::kNlpmAutoRangeFactor * sigma, engine::kAutoNlpmMinRange), 1e-12);
+  EXPECT_GE(chosen["parameters"]["translation_sigma_t"].get<double>(), 0.0);
   EXPECT_EQ(j["automatic"]["methods"]["nlpm"], 1);
 
   // bof asked for its automatic widths: the widths it used.

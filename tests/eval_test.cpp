@@ -104,8 +104,9 @@ TEST(EvalCommand, WritesTheReportWithTheExpectedStructure) {
       const int best = method["best_point"][c];
       ASSERT_GE(best, 0);
       const auto& cell = method["grid"][std::size_t(best)]["results"][c];
-      for (const char* key : {"rmse_rad", "psnr_db", "end_effector_rmse_cm", "foot_skating_percent",
-                              "angular_speed_rms_error"})
+      for (const char* key :
+           {"rmse_rad", "psnr_db", "end_effector_rmse_cm", "foot_skating_percent",
+            "angular_speed_rms_error", "mpjpe_mm", "jitter_mm", "acceleration_error_mm"})
         EXPECT_TRUE(cell[key].is_number()) << method["method"] << " " << key;
       // Every method at its best grid point beats doing nothing on this noise.
       EXPECT_GT(cell["psnr_db"].get<double>(), noisy) << method["method"] << " condition " << c;
@@ -117,14 +118,14 @@ TEST(EvalCommand, WritesTheReportWithTheExpectedStructure) {
 
   const std::string table = test::read_text(out / "table.md");
   EXPECT_NE(table.find("| method | gaussian 0.03 | impulse 0.01 |"), std::string::npos) << table;
-  // Rows "| bof | 43.21 / 42.10 | 40.00 / 39.99 |": in the PSNR, RMSE and foot skating tables
-  // (2 decimals), once per method.
+  // Rows "| bof | 43.21 / 42.10 | 40.00 / 39.99 |": in the tables of 2 decimals (joint position
+  // error, jitter and skating ratios, PSNR, RMSE, foot skating share), once per method.
   int rows = 0;
   std::istringstream lines(table);
   for (std::string text; std::getline(lines, text);)
     for (const std::string method : {"| bof ", "| nlpm ", "| kalman "})
       if (text.rfind(method, 0) == 0 && two_pair_cells(text.substr(method.size()))) ++rows;
-  EXPECT_EQ(rows, 3 * 3) << table;
+  EXPECT_EQ(rows, 6 * 3) << table;
 
   const std::string html = test::read_text(out / "index.html");
   int images = 0;

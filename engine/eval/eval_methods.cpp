@@ -11,6 +11,7 @@
 #include "kernels/kalman.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
+#include "kernels/noise_estimate.hpp"
 
 namespace mocap::engine::eval {
 namespace {
@@ -28,6 +29,9 @@ bool has(const ParamPoint* point, const std::string& name) {
 
 void copy(const SegmentJob& job) {
   std::memcpy(job.output.data, job.noisy.data, job.noisy.size() * sizeof(float));
+  if (!job.translations.empty())
+    std::memcpy(job.output_translations.data, job.translations.data,
+                job.translations.size() * sizeof(float));
 }
 
 }  // namespace
@@ -78,6 +82,11 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
   io.frame_time = job.frame_time;
   io.rotations = job.noisy;
   io.filtered_rotations = job.output;
+  if (!job.translations.empty()) {
+    io.translations = job.translations;
+    io.filtered_translations = job.output_translations;
+    io.translated_joints = job.translated_joints;
+  }
 
   switch (method) {
     case EvalMethod::bof: {
@@ -116,22 +125,46 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
       if ((robust || !has(point, "h")) && !(sigma_hat > 0)) break;
       p.h = has(point, "h") ? value(point, "h", 0)
                             : value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
-      used = {{"h", p.h}, {"K", p.search_radius}, {"P", p.patch_radius}};
-      if (robust) {
-        p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
-        used["range_sigma"] = p.range_sigma;
+      if (robust) p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
+      if (job.automatic_floors) {  // what --method auto does (engine/filter_settings.hpp)
+        p.h = std::max(p.h, kAutoNlpmMinH);
+        if (robust) p.range_sigma = std::max(p.range_sigma, kAutoNlpmMinRange);
       }
+      p.translation_sigma_t =
+          has(point, "translation_sigma_t")
+              ? value(point, "translation_sigma_t", 0)
+              : automatic_translation_sigma_t(
+                    estimate_translation_noise(job.translations, job.translated_joints,
+                                               job.frame_time),
+                    job.frame_time, job.body_height);
+      used = {{"h", p.h},
+              {"K", p.search_radius},
+              {"P", p.patch_radius},
+              {"translation_sigma_t", p.translation_sigma_t}};
+      if (robust) used["range_sigma"] = p.range_sigma;
       return done(NlpmJob{p, io, job.distance_joints}.run());
     }
     case EvalMethod::automatic: {
       if (!(sigma_hat > 0)) break;
-      const FilterSettings chosen = choose_automatic(FilterSettings{}, sigma_hat);
+      const bool noisy_positions = has_noisy_positions(
+          estimate_translation_noise(job.translations, job.translated_joints, job.frame_time),
+          job.body_height);
+      const FilterSettings chosen =
+          choose_automatic(FilterSettings{}, sigma_hat, noisy_positions, job.frame_time);
       const EvalMethod as =
           chosen.method == Method::nlpm
               ? (chosen.nlpm_range != 0 ? EvalMethod::nlpm_robust : EvalMethod::nlpm)
           : chosen.method == Method::kalman ? EvalMethod::kalman
                                             : EvalMethod::bof;
-      const Status s = run_method(as, nullptr, job, &used);
+      SegmentJob floored = job;
+      floored.automatic_floors = true;
+      // The smooth bof of noisy positions: its sigma_g as chosen, sigma_t automatic.
+      const ParamPoint smooth{{"sigma_g", chosen.bilateral.sigma_g},
+                              {"sigma_t", 0.0},
+                              {"iterations", double(chosen.bilateral.iterations)}};
+      const bool smooth_bof = as == EvalMethod::bof && chosen.bilateral.sigma_g > 0;
+      const Status s = run_method(as, smooth_bof ? &smooth : nullptr, floored, &used);
+      used["noisy_positions"] = noisy_positions;
       used["method"] = std::string(to_string(as));
       return done(s);
     }
@@ -178,9 +211,13 @@ Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJ
   // Garbage joints as they came, as the engine keeps them (run_shard).
   for (std::size_t j = 0; s && j < job.kept_joints.size(); ++j) {
     if (!job.kept_joints[j]) continue;
-    for (int t = 0; t < job.noisy.frames; ++t)
+    for (int t = 0; t < job.noisy.frames; ++t) {
       std::memcpy(job.output.data + (std::size_t(t) * std::size_t(job.noisy.joints) + j) * 4,
                   job.noisy.at(t, int(j)), 4 * sizeof(float));
+      if (!job.translations.empty())
+        std::memcpy(job.output_translations.at(t, int(j)), job.translations.at(t, int(j)),
+                    3 * sizeof(float));
+    }
   }
   return s;
 }

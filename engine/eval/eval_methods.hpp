@@ -6,8 +6,9 @@
 //   (engine/filter_settings.hpp), K = 10, P = 5 gaussian     sigma_t = 1 frame;  butterworth  order
 //   2, 6 Hz;  moving-mean  5 passes kalman       lambda = kalman_auto_lambda(sigma_hat, frame_time)
 //   (kernels/kalman.hpp)
-// Rotations only: the noise models touch rotations, so eval keeps every translation as it is and
-// the position metrics measure what the rotation filter did.
+// Translations (the position channels) take each method's translation path, as in the engine:
+// nlpm's Gaussian width comes from the segment's estimated translation noise
+// (automatic_translation_sigma_t) unless the grid gives translation_sigma_t.
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
@@ -27,6 +28,12 @@ struct SegmentJob {
   // Optional, one entry per joint: joints copied as they came (garbage), and the joints nlpm's
   // pose distance looks at (empty: all).
   std::span<const std::uint8_t> kept_joints, distance_joints;
+  // Optional: the segment's translations in and out, and the joints with position channels.
+  TranslationView translations;
+  TranslationSpan output_translations;
+  std::span<const std::uint8_t> translated_joints;
+  bool automatic_floors = false;  // --method auto's floors of h and the range width
+  double body_height = 0;         // file units: auto's test for noisy positions
 };
 
 // Filters `job` with `method` at `point`, or automatically when point is null. A segment of one

@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 
+#include "engine/filter_settings.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/metrics.hpp"
 #include "kernels/quaternion.hpp"
@@ -94,14 +95,17 @@ double lowest_foot(const std::vector<float>& positions, const ClipGeometry& g,
 }  // namespace
 
 void effector_positions(const io::Clip& clean, const ClipGeometry& geometry, RotationView rotations,
-                        std::vector<float>& out) {
-  std::vector<float> joints(std::size_t(rotations.frames) * std::size_t(rotations.joints) * 3);
+                        std::vector<float>& out, TranslationView translations,
+                        std::vector<float>* joint_positions) {
+  std::vector<float> local;
+  std::vector<float>& joints = joint_positions ? *joint_positions : local;
+  joints.assign(std::size_t(rotations.frames) * std::size_t(rotations.joints) * 3, 0.0f);
   out.assign(std::size_t(rotations.frames) * geometry.sites.size() * 3, 0.0f);
   ForwardKinematicsJob fk;
   fk.parents = geometry.parents;
   fk.offsets = geometry.offsets;
   fk.rotations = rotations;
-  fk.translations = clean.translation_view();
+  fk.translations = translations.empty() ? clean.translation_view() : translations;
   fk.translated_joints = geometry.translated;
   fk.sites = geometry.sites;
   fk.positions = {joints.data(), rotations.frames, rotations.joints};
@@ -130,6 +134,8 @@ ClipGeometry describe_clip(const io::Clip& clean, double unit_cm,
       if (!has_child[std::size_t(j)]) g.effectors.push_back(effector_at(skeleton, j, false));
   }
   for (const Effector& e : g.effectors) g.sites.push_back(e.site);
+  g.feet = find_feet(skeleton.joint_names, skeleton.parents, skeleton.offsets);
+  g.body_height_units = body_height(skeleton);
 
   std::vector<float> positions;
   effector_positions(clean, g, clean.rotation_view(), positions);
@@ -182,6 +188,7 @@ void Score::add(const Score& o) {
   speed_sq += o.speed_sq;
   speed_n += o.speed_n;
   max_error = std::max(max_error, o.max_error);
+  positions.add(o.positions);
 }
 
 namespace {
@@ -205,6 +212,55 @@ double Score::skating_percent() const {
 double Score::speed_rms() const {
   return std::sqrt(ratio(speed_sq, speed_n));
 }
+double Score::mpjpe_mm() const {
+  return positions.mpjpe();
+}
+double Score::jitter_mm() const {
+  return positions.jitter();
+}
+double Score::accel_error_mm() const {
+  return positions.accel_error();
+}
+double Score::skating_mm() const {
+  return positions.skating();
+}
+
+namespace {
+
+// Sums in file units to sums in mm, so that clips of different units pool.
+void in_mm(PositionSums& p, double mm) {
+  p.error *= mm;
+  p.jitter_sq *= mm * mm;
+  p.accel_error_sq *= mm * mm;
+  p.skate *= mm;
+}
+
+// The frames of a segment the position scores cover.
+FrameRange scored_range(const Segment& s, double frame_time) {
+  const int edge = std::min(int(std::ceil(kEvalEdgeSeconds / frame_time)), s.frames() / 4);
+  return {s.begin + edge, s.end - edge};
+}
+
+void add_position_scores(const io::Clip& clean, const ClipGeometry& geometry,
+                         const ClipReference& reference, const std::vector<Segment>& segments,
+                         const std::vector<float>& positions, bool against_truth,
+                         PositionSums& sums) {
+  const TensorView<const float, 3> p{positions.data(), clean.frames, clean.joints()};
+  const TensorView<const float, 3> g{reference.positions.data(), clean.frames, clean.joints()};
+  for (const Segment& seg : segments) {
+    if (seg.frames() < 3) continue;
+    const FrameRange range = scored_range(seg, clean.frame_time);
+    if (against_truth) {
+      add_position_error(p, g, range, sums);
+      add_acceleration_error(p, g, range, sums);
+    }
+    add_jitter(p, range, sums);
+    for (std::size_t f = 0; f < geometry.feet.size() && f < reference.contacts.size(); ++f)
+      add_skating(p, geometry.feet[f].ankle, reference.contacts[f], range, sums);
+  }
+}
+
+}  // namespace
 
 void count_skating(std::span<const Vec3> track, const std::vector<Segment>& segments, double ground,
                    double cm_per_unit, double* skates, double* steps) {
@@ -225,7 +281,26 @@ void count_skating(std::span<const Vec3> track, const std::vector<Segment>& segm
 ClipReference make_reference(const io::Clip& clean, const ClipGeometry& geometry,
                              const std::vector<Segment>& segments) {
   ClipReference r;
-  effector_positions(clean, geometry, clean.rotation_view(), r.effectors);
+  effector_positions(clean, geometry, clean.rotation_view(), r.effectors, {}, &r.positions);
+  // Contacts of the clean clip's ankles: where a viewer expects the feet to stay planted.
+  {
+    const std::size_t feet = geometry.feet.size();
+    std::vector<float> tracks(std::size_t(clean.frames) * feet * 3);
+    for (int t = 0; t < clean.frames; ++t)
+      for (std::size_t f = 0; f < feet; ++f)
+        std::copy_n(&r.positions[(std::size_t(t) * std::size_t(clean.joints()) +
+                                  std::size_t(geometry.feet[f].ankle)) *
+                                 3],
+                    3, &tracks[(std::size_t(t) * feet + f) * 3]);
+    FootContactJob job;
+    job.feet = {tracks.data(), clean.frames, int(feet)};
+    job.frame_time = clean.frame_time;
+    job.body_height = geometry.body_height_units;
+    job.contacts = &r.contacts;
+    if (!job.run().ok()) r.contacts.assign(feet, {});
+  }
+  add_position_scores(clean, geometry, r, segments, r.positions, false, r.clean_positions);
+  in_mm(r.clean_positions, geometry.unit_cm * 10);
   r.ground = lowest_foot(r.effectors, geometry, segments);
   const int frames = clean.frames, joints = clean.joints();
   r.speeds.assign(std::size_t(joints) * std::size_t(std::max(frames - 1, 0)), 0.0);
@@ -243,7 +318,7 @@ ClipReference make_reference(const io::Clip& clean, const ClipGeometry& geometry
 
 Score score_clip(const io::Clip& clean, const ClipGeometry& geometry,
                  const ClipReference& reference, const std::vector<Segment>& segments,
-                 RotationView result) {
+                 RotationView result, TranslationView result_translations) {
   Score s;
   const RotationView truth = clean.rotation_view();
   const int joints = clean.joints(), frames = clean.frames;
@@ -271,8 +346,10 @@ Score score_clip(const io::Clip& clean, const ClipGeometry& geometry,
         }
   }
 
-  std::vector<float> positions;
-  effector_positions(clean, geometry, result, positions);
+  std::vector<float> positions, joint_positions;
+  effector_positions(clean, geometry, result, positions, result_translations, &joint_positions);
+  add_position_scores(clean, geometry, reference, segments, joint_positions, true, s.positions);
+  in_mm(s.positions, geometry.unit_cm * 10);
   const int effectors = int(geometry.effectors.size());
   const double unit2 = geometry.unit_cm * geometry.unit_cm;
   for (const Segment& seg : segments) {

@@ -25,8 +25,10 @@
 #include <vector>
 
 #include "io/clip.hpp"
+#include "kernels/foot_contacts.hpp"
 #include "kernels/forward_kinematics.hpp"
 #include "kernels/motion_split.hpp"
+#include "kernels/position_metrics.hpp"
 
 namespace mocap::engine::eval {
 
@@ -55,6 +57,8 @@ struct ClipGeometry {
   // worst-error score.
   std::vector<std::uint8_t> garbage;
   double hip_height_units = 0;
+  double body_height_units = 0;  // rest pose (kernels/foot_contacts.hpp, rest_height)
+  std::vector<FootChain> feet;   // find_feet: their ankles carry the contacts and the skating
 };
 
 // The effectors of `clip`'s skeleton, the unit (unit_cm > 0: given), from the clean clip.
@@ -71,6 +75,10 @@ struct Score {
   double speed_sq = 0;  // (rad/s)^2
   double speed_n = 0;
   double max_error = 0;  // rad: the largest rotation error of any joint that is not garbage
+  // Joint positions of every joint (spec "Metrics"), in mm, over the scored frames of each segment
+  // less kEvalEdgeSeconds at its ends: MPJPE, jitter, acceleration error, and skating over the
+  // clean clip's foot contacts.
+  PositionSums positions;
 
   void add(const Score& other);
   double rmse() const;             // rad
@@ -78,7 +86,15 @@ struct Score {
   double effector_rms_cm() const;  // cm
   double skating_percent() const;  // % of foot steps
   double speed_rms() const;        // rad/s
+  double mpjpe_mm() const;
+  double jitter_mm() const;       // RMS |P[t+1] - 2 P[t] + P[t-1]|, mm per frame^2
+  double accel_error_mm() const;  // mm per frame^2
+  double skating_mm() const;      // mm per frame over the clean clip's contact frames
 };
+
+// Frames left out at each end of a segment for the position scores (spec "Metrics": the boundary
+// extension dominates there), at most a quarter of the segment.
+inline constexpr double kEvalEdgeSeconds = 0.1;
 
 // What the scores compare against, computed once from the clean clip.
 struct ClipReference {
@@ -86,18 +102,24 @@ struct ClipReference {
   std::vector<double> speeds;    // [J][F-1] angular speed of each joint, rad/s
   double ground = 0;             // lowest foot height (Y), file units
   Score clean_skating;           // the clean clip's own skating (skate_steps, foot_steps)
+  std::vector<float> positions;  // [F][J][3] global joint positions of the clean clip
+  std::vector<std::vector<ContactInterval>> contacts;  // per foot of geometry.feet
+  PositionSums clean_positions;  // the clean clip's own jitter and skating, mm
 };
 ClipReference make_reference(const io::Clip& clean, const ClipGeometry& geometry,
                              const std::vector<Segment>& segments);
 
-// The scores of `result` (rotations of the clip's shape; translations are the clean clip's).
+// The scores of `result` (rotations and translations of the clip's shape; empty translations:
+// the clean clip's).
 Score score_clip(const io::Clip& clean, const ClipGeometry& geometry,
                  const ClipReference& reference, const std::vector<Segment>& segments,
-                 RotationView result);
+                 RotationView result, TranslationView result_translations = {});
 
-// Global positions of the effectors for `rotations` with the clean clip's translations.
+// Global positions of the effectors for `rotations` with `translations` (empty: the clean
+// clip's); `joints` (optional) receives every joint's.
 void effector_positions(const io::Clip& clean, const ClipGeometry& geometry, RotationView rotations,
-                        std::vector<float>& out);
+                        std::vector<float>& out, TranslationView translations = {},
+                        std::vector<float>* joints = nullptr);
 
 // Skating steps of one foot's track (global positions per frame, file units) over the steps
 // inside segments of at least 2 frames: adds to *skates and *steps.

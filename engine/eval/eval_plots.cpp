@@ -123,7 +123,10 @@ bool curve_figures(const EvalResults& r, const EvalConfig& config, int c,
   for (EvalMethod m : {EvalMethod::bof, EvalMethod::nlpm}) {
     if (method_index(config, m) < 0) continue;
     Curve curve{std::string(to_string(m)) + " (automatic)", method_color(m), {}, 1.6};
-    if (Status s = filter_clip(clip, noisy, m, false, nullptr, curve.rotations, nullptr); !s)
+    std::vector<float> translations;
+    if (Status s =
+            filter_clip(clip, noisy, m, false, nullptr, curve.rotations, translations, nullptr);
+        !s)
       continue;
     curves.push_back(std::move(curve));
   }

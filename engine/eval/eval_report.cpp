@@ -90,7 +90,30 @@ std::vector<Table> all_tables(const EvalResults& r, const EvalConfig& config) {
   skating.caption +=
       fmt::format("; the clean clips themselves: {}%",
                   number(clean_steps > 0 ? 100 * clean_skates / clean_steps : NAN, 2));
+  // The clean captures' own jitter and skating (mm), for the ratios "x the capture's".
+  PositionSums clean;
+  for (const EvalClip& c : r.clips) clean.add(c.reference.clean_positions);
+  const double clean_jitter = clean.jitter(), clean_skating = clean.skating();
   return {
+      score_table(
+          r, config, "Joint position error (MPJPE, all joints), mm (" + pool + ")",
+          [](const Score& s) { return s.mpjpe_mm(); }, 2),
+      score_table(
+          r, config,
+          fmt::format("Jitter of the joint positions, x the clean capture's ({} mm/frame^2) (",
+                      number(clean_jitter, 3)) +
+              pool + ")",
+          [clean_jitter](const Score& s) { return s.jitter_mm() / clean_jitter; }, 2),
+      score_table(
+          r, config,
+          fmt::format("Foot skating over the clean capture's contact frames, x the capture's ({} "
+                      "mm/frame) (",
+                      number(clean_skating, 3)) +
+              pool + ")",
+          [clean_skating](const Score& s) { return s.skating_mm() / clean_skating; }, 2),
+      score_table(
+          r, config, "Acceleration error of the joint positions, mm/frame^2 (" + pool + ")",
+          [](const Score& s) { return s.accel_error_mm(); }, 3),
       score_table(
           r, config, "Rotation PSNR, dB (" + pool + ")", [](const Score& s) { return s.psnr(); },
           2),
@@ -140,6 +163,13 @@ std::string to_html(const Table& t) {
   return out + "</table>\n";
 }
 
+int contact_frames(const std::vector<std::vector<ContactInterval>>& contacts) {
+  int n = 0;
+  for (const auto& foot : contacts)
+    for (const ContactInterval& c : foot) n += c.frames();
+  return n;
+}
+
 nlohmann::json json_number(double v) {
   return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
 }
@@ -149,7 +179,11 @@ nlohmann::json score_json(const Score& s) {
           {"psnr_db", json_number(s.psnr())},
           {"end_effector_rmse_cm", json_number(s.effector_rms_cm())},
           {"foot_skating_percent", json_number(s.skating_percent())},
-          {"angular_speed_rms_error", json_number(s.speed_rms())}};
+          {"angular_speed_rms_error", json_number(s.speed_rms())},
+          {"mpjpe_mm", json_number(s.mpjpe_mm())},
+          {"jitter_mm", json_number(s.jitter_mm())},
+          {"acceleration_error_mm", json_number(s.accel_error_mm())},
+          {"foot_skating_mm", json_number(s.skating_mm())}};
 }
 
 nlohmann::json point_json(const ParamPoint& p) {
@@ -203,7 +237,11 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
                      {"unit_cm", c.geometry.unit_cm},
                      {"unit_guessed", c.geometry.unit_guessed},
                      {"hip_height_units", c.geometry.hip_height_units},
-                     {"clean_foot_skating_percent", json_number(sk.skating_percent())}});
+                     {"clean_foot_skating_percent", json_number(sk.skating_percent())},
+                     {"body_height_units", c.geometry.body_height_units},
+                     {"clean_jitter_mm", json_number(c.reference.clean_positions.jitter())},
+                     {"clean_foot_skating_mm", json_number(c.reference.clean_positions.skating())},
+                     {"contact_frames", contact_frames(c.reference.contacts)}});
   }
   j["clips"] = clips;
 
@@ -234,6 +272,8 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
         if (n.garbage[jt]) garbage.push_back(r.clips[k].clean.skeleton->joint_names[jt]);
       per_clip.push_back({{"clip", r.clips[k].name},
                           {"psnr_db", r.noisy_scores[c][k].psnr()},
+                          {"mpjpe_mm", json_number(r.noisy_scores[c][k].mpjpe_mm())},
+                          {"jitter_mm", json_number(r.noisy_scores[c][k].jitter_mm())},
                           {"pops_found", n.pops},
                           {"garbage_joints", garbage}});
     }

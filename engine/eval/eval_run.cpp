@@ -55,6 +55,19 @@ std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condi
   return rotations;
 }
 
+std::vector<float> make_noisy_translations(const io::Clip& clean, const NoiseCondition& condition,
+                                           double body_height, std::uint64_t seed) {
+  std::vector<float> translations = clean.translations;
+  if (condition.position_sigma > 0) {
+    std::vector<std::uint8_t> translated;
+    for (int j = 0; j < clean.joints(); ++j)
+      translated.push_back(clean.skeleton->has_translation(j) ? 1 : 0);
+    add_noise(PositionNoise{condition.position_sigma * body_height, seed ^ 0x5bd1e995u},
+              {translations.data(), clean.frames, clean.joints()}, translated);
+  }
+  return translations;
+}
+
 // The impossible steps are a property of the source, so eval finds them in the clean clip: every
 // method and noise condition then sees the same segments, and the synthetic noise (whose pops
 // stay below the threshold anyway) can neither add nor hide a cut.
@@ -71,7 +84,8 @@ EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config
 }
 
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
-                   const ParamPoint* point, std::vector<float>& out, nlohmann::json* resolved) {
+                   const ParamPoint* point, std::vector<float>& out,
+                   std::vector<float>& out_translations, nlohmann::json* resolved) {
   const int joints = clip.clean.joints();
   const std::vector<float>& input = repaired ? noisy.repaired : noisy.rotations;
   const std::vector<double>& sigma_hats = repaired ? noisy.repaired_sigma_hats : noisy.sigma_hats;
@@ -81,15 +95,23 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
   const std::vector<std::uint8_t> distance =
       any_garbage ? distance_joints_without(noisy.garbage) : std::vector<std::uint8_t>{};
   out.resize(input.size());
+  out_translations.resize(noisy.translations.size());
+  std::vector<std::uint8_t> translated;
+  for (int j = 0; j < joints; ++j)
+    translated.push_back(clip.clean.skeleton->has_translation(j) ? 1 : 0);
   if (resolved) *resolved = nlohmann::json::array();
   for (std::size_t s = 0; s < clip.segments.size(); ++s) {
     const Segment& seg = clip.segments[s];
-    SegmentJob job{segment_view(input, joints, seg),
-                   segment_span(out, joints, seg),
-                   clip.clean.frame_time,
-                   sigma_hats[s],
-                   {},
-                   {}};
+    SegmentJob job;
+    job.noisy = segment_view(input, joints, seg);
+    job.output = segment_span(out, joints, seg);
+    job.frame_time = clip.clean.frame_time;
+    job.sigma_hat = sigma_hats[s];
+    job.body_height = clip.geometry.body_height_units;
+    const std::size_t at = std::size_t(seg.begin) * std::size_t(joints) * 3;
+    job.translations = {noisy.translations.data() + at, seg.frames(), joints};
+    job.output_translations = {out_translations.data() + at, seg.frames(), joints};
+    job.translated_joints = translated;
     if (any_garbage) {
       job.kept_joints = noisy.garbage;
       job.distance_joints = distance;
@@ -122,8 +144,10 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       const EvalClip& clip = r.clips[k];
       NoisyClip& noisy = r.noisy[c][k];
       const std::string label = config.conditions[c].label();
-      noisy.rotations =
-          make_noisy(clip.clean, config.conditions[c], noise_seed(config.seed, clip.name, label));
+      const std::uint64_t seed = noise_seed(config.seed, clip.name, label);
+      noisy.rotations = make_noisy(clip.clean, config.conditions[c], seed);
+      noisy.translations = make_noisy_translations(clip.clean, config.conditions[c],
+                                                   clip.geometry.body_height_units, seed);
       for (const Segment& s : clip.segments)
         noisy.sigma_hats.push_back(
             estimate_noise(segment_view(noisy.rotations, clip.clean.joints(), s)).sigma);
@@ -141,7 +165,8 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       }
       r.noisy_scores[c][k] =
           score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
-                     {noisy.rotations.data(), clip.clean.frames, clip.clean.joints()});
+                     {noisy.rotations.data(), clip.clean.frames, clip.clean.joints()},
+                     {noisy.translations.data(), clip.clean.frames, clip.clean.joints()});
     }
   });
   r.prepare_seconds = seconds_since(start);
@@ -164,7 +189,7 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
   std::size_t done = 0;
   const auto filter_start = std::chrono::steady_clock::now();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tasks.size(), 1), [&](const auto& range) {
-    std::vector<float> out;
+    std::vector<float> out, out_translations;
     for (std::size_t i = range.begin(); i < range.end(); ++i) {
       const Task& t = tasks[i];
       const MethodGrid& grid = config.grids[t.m];
@@ -172,12 +197,14 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       const EvalClip& clip = r.clips[t.k];
       TaskResult& result = r.results[t.m][t.p][t.c][t.k];
       const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
-                                   point ? nullptr : &result.resolved);
+                                   out_translations, point ? nullptr : &result.resolved);
       if (!s) {
         result.error = s.message();
       } else {
-        result.score = score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
-                                  {out.data(), clip.clean.frames, clip.clean.joints()});
+        result.score =
+            score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
+                       {out.data(), clip.clean.frames, clip.clean.joints()},
+                       {out_translations.data(), clip.clean.frames, clip.clean.joints()});
       }
       if (progress) {
         std::lock_guard lock(progress_mutex);

@@ -39,8 +39,9 @@ struct EvalClip {
 
 // The noise of one clip x condition and the noise level estimated on each of its segments.
 struct NoisyClip {
-  std::vector<float> rotations;    // [F][J][4]
-  std::vector<double> sigma_hats;  // per segment
+  std::vector<float> rotations;     // [F][J][4]
+  std::vector<float> translations;  // [F][J][3]: the clean ones plus the condition's position noise
+  std::vector<double> sigma_hats;   // per segment
   // The same after the engine's conditioning (engine/clip_conditioning.hpp: pop repair, garbage
   // joints found on the noisy clip), and its noise estimates (garbage joints left out).
   std::vector<float> repaired;
@@ -69,9 +70,13 @@ struct EvalResults {
 // clip's noise does not depend on which other clips or conditions run.
 std::uint64_t noise_seed(std::uint64_t seed, const std::string& clip, const std::string& condition);
 
-// Adds the condition's noise to a copy of `clean` (rotations only).
+// Adds the condition's rotation noise to a copy of `clean`'s rotations.
 std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condition,
                               std::uint64_t seed);
+// Adds the condition's position noise (position_sigma body heights, on the joints with position
+// channels) to a copy of `clean`'s translations; seeded apart from the rotation noise.
+std::vector<float> make_noisy_translations(const io::Clip& clean, const NoiseCondition& condition,
+                                           double body_height, std::uint64_t seed);
 
 // Prepares a clip: the impossible steps and segments (when config.split_impossible), the
 // geometry and the reference.
@@ -92,7 +97,9 @@ int best_point(const EvalResults& results, const EvalConfig& config, std::size_t
 // clip); the one place where the segments are applied. `resolved` may be null.
 // With `repaired`, on the conditioned clip: garbage joints are copied as they came and stay out
 // of nlpm's pose distance.
+// `out_translations` receives the filtered translations (sized like the clip's).
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
-                   const ParamPoint* point, std::vector<float>& out, nlohmann::json* resolved);
+                   const ParamPoint* point, std::vector<float>& out,
+                   std::vector<float>& out_translations, nlohmann::json* resolved);
 
 }  // namespace mocap::engine::eval

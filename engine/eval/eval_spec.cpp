@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 
 namespace mocap::engine::eval {
 namespace {
@@ -79,11 +80,37 @@ std::string label(const MethodGrid& grid) {
 }
 
 std::string NoiseCondition::label() const {
-  if (model == Model::gaussian) return fmt::format("gaussian {:g}", sigma);
-  return fmt::format("impulse {:g}", impulse.rate);
+  const std::string positions =
+      position_sigma > 0 ? fmt::format("+pos {:g}", position_sigma) : std::string();
+  if (model == Model::gaussian) return fmt::format("gaussian {:g}{}", sigma, positions);
+  return fmt::format("impulse {:g}{}", impulse.rate, positions);
 }
 
+namespace {
+std::vector<NoiseCondition> parse_rotation_noise(std::string_view spec, std::string* error);
+}  // namespace
+
 std::vector<NoiseCondition> parse_noise(std::string_view spec, std::string* error) {
+  const std::size_t plus = spec.find("+pos:");
+  if (plus == std::string_view::npos) return parse_rotation_noise(spec, error);
+  const std::string number(spec.substr(plus + 5));
+  char* end = nullptr;
+  const double fraction = std::strtod(number.c_str(), &end);
+  if (number.empty() || end != number.c_str() + number.size() || !std::isfinite(fraction) ||
+      fraction < 0 || fraction > 0.1) {
+    *error = fmt::format(
+        "--noise {}: +pos: takes the position noise as a fraction of the body's height in "
+        "[0, 0.1], e.g. gaussian:0.02+pos:0.004",
+        spec);
+    return {};
+  }
+  std::vector<NoiseCondition> conditions = parse_rotation_noise(spec.substr(0, plus), error);
+  for (NoiseCondition& c : conditions) c.position_sigma = fraction;
+  return conditions;
+}
+
+namespace {
+std::vector<NoiseCondition> parse_rotation_noise(std::string_view spec, std::string* error) {
   const std::size_t colon = spec.find(':');
   const std::string_view model = spec.substr(0, colon);
   const std::string_view rest =
@@ -131,6 +158,8 @@ std::vector<NoiseCondition> parse_noise(std::string_view spec, std::string* erro
   return {};
 }
 
+}  // namespace
+
 std::vector<NoiseCondition> default_noise_conditions() {
   std::string ignored;
   std::vector<NoiseCondition> c = parse_noise("gaussian:0.008,0.03,0.12", &ignored);
@@ -151,7 +180,7 @@ std::vector<std::string> method_parameters(EvalMethod method) {
       return {"sigma_g", "sigma_g_factor", "sigma_g_floor",
               "sigma_t", "sigma_t_factor", "iterations"};
     case EvalMethod::nlpm:
-      return {"h", "h_factor", "K", "P"};
+      return {"h", "h_factor", "K", "P", "translation_sigma_t"};
     case EvalMethod::gaussian:
       return {"sigma_t"};
     case EvalMethod::butterworth:
@@ -161,7 +190,7 @@ std::vector<std::string> method_parameters(EvalMethod method) {
     case EvalMethod::kalman:
       return {"lambda", "lambda_scale"};
     case EvalMethod::nlpm_robust:
-      return {"h", "h_factor", "range_factor", "K", "P"};
+      return {"h", "h_factor", "range_factor", "K", "P", "translation_sigma_t"};
     case EvalMethod::automatic:
       return {};
   }

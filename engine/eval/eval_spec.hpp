@@ -33,14 +33,19 @@ inline constexpr EvalMethod kAllEvalMethods[] = {
 
 struct NoiseCondition {
   enum class Model { gaussian, impulse } model = Model::gaussian;
-  double sigma = 0.03;        // gaussian, rad
-  ImpulseNoise impulse;       // impulse: rate and pop angles (seed set per clip)
-  std::string label() const;  // "gaussian 0.03", "impulse 0.01"
+  double sigma = 0.03;   // gaussian, rad
+  ImpulseNoise impulse;  // impulse: rate and pop angles (seed set per clip)
+  // Position noise on every position channel, as a fraction of the body's height (spec "Noise
+  // models": 0.004 of a 1.7 m body is 7 mm); 0 = none.
+  double position_sigma = 0;
+  std::string label() const;  // "gaussian 0.03", "impulse 0.01", "gaussian 0.02+pos 0.004"
   bool is_gaussian() const { return model == Model::gaussian; }
 };
 
-// "gaussian:0.008,0.03,0.12" (one condition per sigma), "impulse" (the spec's defaults) or
-// "impulse:RATE[,MIN,MAX]". Empty result and *error set on a malformed spec.
+// "gaussian:0.008,0.03,0.12" (one condition per sigma; 0 = the capture as it is), "impulse" (the
+// spec's defaults) or "impulse:RATE[,MIN,MAX]", each optionally followed by "+pos:F" (position
+// noise of F body heights on every condition of the spec). Empty result and *error set on a
+// malformed spec.
 std::vector<NoiseCondition> parse_noise(std::string_view spec, std::string* error);
 std::vector<NoiseCondition> default_noise_conditions();
 
