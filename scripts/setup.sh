@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev
   hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py python3-numpy
+  pybind11-dev python3-pybind11 python3-dev python3-pytest python3-scipy
   libopenmpi-dev openmpi-bin
 )
 missing=()
