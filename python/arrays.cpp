@@ -1,7 +1,10 @@
 #include "python/arrays.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -82,6 +85,23 @@ Borrowed borrow(py::handle object, int channels, bool scalar_first, const char* 
     b.data = b.storage.data();
   }
   return b;
+}
+
+std::string check_rotation_values(RotationView rotations) {
+  for (int t = 0; t < rotations.frames; ++t)
+    for (int j = 0; j < rotations.joints; ++j) {
+      const float* q = rotations.at(t, j);
+      for (int c = 0; c < 4; ++c)
+        if (!std::isfinite(q[c]))
+          return fmt::format("{} in rotations at frame {}, joint '{}'",
+                             std::isnan(q[c]) ? "NaN" : "infinity", t, j);
+      const double norm = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] +
+                                    double(q[2]) * q[2] + double(q[3]) * q[3]);
+      if (std::abs(norm - 1.0) > 1e-3)
+        return fmt::format(
+            "rotation at frame {}, joint '{}' is not a unit quaternion (norm {:.6g})", t, j, norm);
+    }
+  return {};
 }
 
 py::array adopt(std::vector<float>&& values, int frames, int joints, int channels,

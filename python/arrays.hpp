@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "kernels/tensor.hpp"
@@ -37,6 +38,11 @@ inline RotationView rotation_view(const Borrowed& b) {
 inline TranslationView translation_view(const Borrowed& b) {
   return {b.data, b.frames, b.joints};
 }
+
+// Why `rotations` cannot go into a kernel, in the words of engine::check_clip_values (which needs
+// an io::Clip, that is a copy; joints are named by index as for bare arrays): "NaN in rotations
+// at frame 3, joint '1'", "... is not a unit quaternion (norm 2)"; "" when they can.
+std::string check_rotation_values(RotationView rotations);
 
 // Copies `object` ([F][J][C], any real dtype and layout) into `out` as float32, scalar first.
 void copy_into(py::handle object, int channels, bool scalar_first, const char* what,

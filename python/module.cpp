@@ -277,13 +277,16 @@ py::array on_rotations(py::handle rotations, bool scalar_first, bool inplace, Fn
     py::array_t<float> a = writable_float32(rotations);
     float* data = a.mutable_data();
     const int F = int(a.shape(0)), J = int(a.shape(1));
+    std::string why;
     {
       py::gil_scoped_release release;
       const std::size_t n = std::size_t(F) * std::size_t(J);
       if (!scalar_first) to_scalar_first(data, n);
-      fn(RotationSpan{data, F, J});
+      why = check_rotation_values({data, F, J});
+      if (why.empty()) fn(RotationSpan{data, F, J});
       if (!scalar_first) to_scalar_last(data, n);
     }
+    if (!why.empty()) throw py::value_error(why);
     return a;
   }
   std::vector<float> values;
@@ -292,10 +295,13 @@ py::array on_rotations(py::handle rotations, bool scalar_first, bool inplace, Fn
   const bool float64 =
       py::isinstance<py::array>(rotations) &&
       py::reinterpret_borrow<py::array>(rotations).dtype().is(py::dtype::of<double>());
+  std::string why;
   {
     py::gil_scoped_release release;
-    fn(RotationSpan{values.data(), F, J});
+    why = check_rotation_values({values.data(), F, J});
+    if (why.empty()) fn(RotationSpan{values.data(), F, J});
   }
+  if (!why.empty()) throw py::value_error(why);
   return adopt(std::move(values), F, J, 4, scalar_first, float64);
 }
 
@@ -780,10 +786,13 @@ PYBIND11_MODULE(mocap_clean, m) {
       [](py::object rotations, bool scalar_first) {
         Borrowed b = borrow(rotations, 4, scalar_first, "rotations");
         std::vector<JointQuality> q;
+        std::string why;
         {
           py::gil_scoped_release release;
-          q = classify_joints(rotation_view(b));
+          why = check_rotation_values(rotation_view(b));
+          if (why.empty()) q = classify_joints(rotation_view(b));
         }
+        if (!why.empty()) throw py::value_error(why);
         py::list out;
         for (const JointQuality& j : q) {
           py::dict entry;
@@ -800,7 +809,8 @@ PYBIND11_MODULE(mocap_clean, m) {
       py::arg("rotations"), py::kw_only(), py::arg("scalar_first") = true,
       "Garbage-joint classification (kernels/joint_quality.hpp): per joint a dict with 'class' "
       "(moving, constant, rounding, flipping), 'garbage', 'median_step', 'max_step' (rad), "
-      "'near_pi_steps', 'near_pi_fraction'. Reads a float32 C-contiguous wxyz array in place.");
+      "'near_pi_steps', 'near_pi_fraction'. Reads a float32 C-contiguous wxyz array in place; NaN "
+      "or non-unit quaternions raise ValueError.");
 
   m.def(
       "estimate_noise",
@@ -812,17 +822,21 @@ PYBIND11_MODULE(mocap_clean, m) {
           throw py::value_error(fmt::format(
               "skip_joints must have one entry per joint ({}), got {}", b.joints, skip.size()));
         NoiseEstimate e;
+        std::string why;
         {
           py::gil_scoped_release release;
-          e = estimate_noise(rotation_view(b), skip);
+          why = check_rotation_values(rotation_view(b));
+          if (why.empty()) e = estimate_noise(rotation_view(b), skip);
         }
+        if (!why.empty()) throw py::value_error(why);
         return py::make_tuple(e.sigma, e.moving_joints);
       },
       py::arg("rotations"), py::kw_only(), py::arg("skip_joints") = py::none(),
       py::arg("scalar_first") = true,
       "The spec's noise level estimate (kernels/noise_estimate.hpp): (sigma_hat in rad per "
       "tangent component, number of moving joints). skip_joints: one flag per joint to leave "
-      "out (e.g. the garbage joints). Reads a float32 C-contiguous wxyz array in place.");
+      "out (e.g. the garbage joints). Reads a float32 C-contiguous wxyz array in place; NaN or "
+      "non-unit quaternions raise ValueError.");
 
   const engine::NoiseCommand noise;
   m.def(

@@ -3,6 +3,7 @@ MOCAP_CLI=build/engine/mocap-clean; the tests on the shared CMU clips skip when
 ../shared/data/bvh is absent."""
 import os
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -211,6 +212,15 @@ def test_errors_carry_the_cli_messages():
     with pytest.raises(ValueError,
                        match=r"^rotation at frame 5, joint '0' is not a unit quaternion \(norm 2\)$"):
         mc.gaussian(long)
+    # The kernel-level functions check values with the same words as the filters (the CLI's).
+    for bad in (nan, long):
+        with pytest.raises(ValueError) as from_filter:
+            mc.bof(bad)
+        for call in (mc.repair_pops, mc.classify_joints, mc.estimate_noise, mc.add_gaussian_noise,
+                     mc.make_continuous):
+            with pytest.raises(ValueError) as from_kernel:
+                call(bad)
+            assert str(from_kernel.value) == str(from_filter.value), call.__name__
     with pytest.raises(ValueError, match="translations must have the shape of rotations"):
         mc.bof(good, translations=np.zeros((20, 3, 3), np.float32))
     with pytest.raises(ValueError, match="frame_time must be a finite number > 0"):
@@ -340,3 +350,23 @@ def test_every_function_has_a_docstring():
         obj = getattr(mc, name)
         if callable(obj) and not name.startswith("__"):
             assert obj.__doc__ and len(obj.__doc__) > 40, name
+
+
+@needs_clips
+def test_the_readme_example_runs_as_written_and_prints_what_the_readme_says(tmp_path):
+    readme = (REPO / "README.md").read_text()
+    section = readme[readme.index("\n## Python\n"):]
+    code = section[section.index("```python\n") + 10:section.index("```\n", section.index("```python"))]
+    printed = section[section.index("It prints"):]
+    printed = printed[printed.index("\n\n") + 2:printed.index("\n\n", printed.index("\n\n") + 2)]
+    expected = [line[4:] for line in printed.splitlines()]
+    # Run from a folder whose ../shared is the real one, as from the repository root.
+    work = tmp_path / "repo"
+    work.mkdir()
+    (tmp_path / "shared").symlink_to((REPO / ".." / "shared").resolve())
+    (work / "example.py").write_text(code)
+    env = dict(os.environ, PYTHONPATH=str(Path(mc.__file__).parent))
+    run = subprocess.run([sys.executable, "example.py"], cwd=work, env=env, capture_output=True,
+                         text=True, check=True)
+    assert run.stdout.splitlines() == expected
+    assert mc.read_bvh(work / "cleaned.bvh").frames == mc.read_bvh(SHARED / "cmu_mb_02_01.bvh").frames
