@@ -1,0 +1,215 @@
+#include "kernels/foot_contacts.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <map>
+
+#include "kernels/format.hpp"
+
+namespace mocap {
+namespace {
+
+bool positive_finite(double v) {
+  return std::isfinite(v) && v > 0;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+char side_of(const std::string& name) {
+  if (name.find("left") != std::string::npos) return 'L';
+  if (name.find("right") != std::string::npos) return 'R';
+  if (!name.empty() && (name[0] == 'l' || name[0] == 'r')) return name[0] == 'l' ? 'L' : 'R';
+  return '?';
+}
+
+// The Gaussian-smoothed track (mirror at the ends), so per-frame noise does not read as speed.
+std::vector<Vec3> smooth(const std::vector<Vec3>& track, double sigma) {
+  const int n = int(track.size());
+  if (sigma < 0.5 || n < 3) return track;
+  const int reach = int(std::ceil(3 * sigma));
+  std::vector<double> mask(std::size_t(2 * reach + 1));
+  double sum = 0;
+  for (int r = -reach; r <= reach; ++r)
+    sum += mask[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  std::vector<Vec3> out(track.size());
+  for (int t = 0; t < n; ++t) {
+    Vec3 acc;
+    for (int r = -reach; r <= reach; ++r) {
+      long s = t + r;
+      // Mirror, periodic for reaches beyond the clip.
+      const long period = 2L * (n - 1);
+      s = ((s % period) + period) % period;
+      if (s >= n) s = period - s;
+      acc += mask[std::size_t(r + reach)] * track[std::size_t(s)];
+    }
+    out[std::size_t(t)] = (1.0 / sum) * acc;
+  }
+  return out;
+}
+
+std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootContactParams& p,
+                                    double frame_time, double height) {
+  const int n = int(track.size());
+  std::vector<ContactInterval> out;
+  if (n < 3) return out;
+  std::vector<double> ys(track.size());
+  for (std::size_t t = 0; t < track.size(); ++t) ys[t] = track[t].y;
+  std::nth_element(ys.begin(), ys.begin() + std::ptrdiff_t(ys.size() / 20), ys.end());
+  const double floor = ys[ys.size() / 20];
+  const std::vector<Vec3> s = smooth(track, p.smoothing_seconds / frame_time);
+  auto speed = [&](int t) {
+    const int a = std::max(t - 1, 0), b = std::min(t + 1, n - 1);
+    const double dx = s[std::size_t(b)].x - s[std::size_t(a)].x,
+                 dz = s[std::size_t(b)].z - s[std::size_t(a)].z;
+    return std::sqrt(dx * dx + dz * dz) / ((b - a) * frame_time) / height;
+  };
+  const int min_frames = std::max(2, int(std::lround(p.min_seconds / frame_time)));
+  bool planted = false;
+  int begin = 0;
+  for (int t = 0; t <= n; ++t) {
+    bool now = planted;
+    if (t < n) {
+      const double h = (s[std::size_t(t)].y - floor) / height, v = speed(t);
+      now = planted ? !(h > p.exit_height || v > p.exit_speed)
+                    : (h < p.enter_height && v < p.enter_speed);
+    } else {
+      now = false;
+    }
+    if (now && !planted) begin = t;
+    if (!now && planted && t - begin >= min_frames) out.push_back({begin, t});
+    planted = now;
+  }
+  return out;
+}
+
+}  // namespace
+
+Status FootContactParams::validate() const {
+  const double values[] = {enter_height, exit_height, enter_speed, exit_speed, min_seconds};
+  for (double v : values)
+    if (!positive_finite(v)) return Status::error("foot contacts: thresholds must be > 0");
+  if (!(smoothing_seconds >= 0) || !std::isfinite(smoothing_seconds))
+    return Status::error("foot contacts: smoothing_seconds must be >= 0");
+  if (exit_height < enter_height || exit_speed < enter_speed)
+    return Status::error("foot contacts: an exit threshold must be at least its enter threshold");
+  return {};
+}
+
+Status FootContactJob::validate() const {
+  if (Status s = params.validate(); !s) return s;
+  if (!positive_finite(frame_time))
+    return Status::error(format("foot contacts: frame_time must be > 0, got %g", frame_time));
+  if (!positive_finite(body_height))
+    return Status::error(format("foot contacts: body_height must be > 0, got %g", body_height));
+  if (contacts == nullptr) return Status::error("foot contacts: no output");
+  if (feet.data == nullptr && feet.frames > 0 && feet.joints > 0)
+    return Status::error("foot contacts: no input");
+  return {};
+}
+
+Status FootContactJob::run() const {
+  if (Status s = validate(); !s) return s;
+  contacts->assign(std::size_t(std::max(feet.joints, 0)), {});
+  for (int f = 0; f < feet.joints; ++f) {
+    std::vector<Vec3> track(std::size_t(feet.frames));
+    for (int t = 0; t < feet.frames; ++t) track[std::size_t(t)] = load_vec3(feet.at(t, f));
+    (*contacts)[std::size_t(f)] = detect(track, params, frame_time, body_height);
+  }
+  return {};
+}
+
+std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<const int> parents,
+                                 std::span<const Vec3> offsets) {
+  const int joints = int(parents.size());
+  std::vector<int> depth(std::size_t(joints), 0);
+  for (int j = 0; j < joints; ++j) {
+    const int p = parents[std::size_t(j)];
+    depth[std::size_t(j)] = p < 0 ? 0 : depth[std::size_t(p)] + 1;
+  }
+  auto chain_from = [&](int ankle, char side) {
+    FootChain c;
+    c.ankle = ankle;
+    c.side = side;
+    c.knee = parents[std::size_t(ankle)];
+    if (c.knee >= 0) c.hip = parents[std::size_t(c.knee)];
+    for (int j = ankle + 1; j < joints; ++j)
+      if (parents[std::size_t(j)] == ankle) {
+        c.toe = j;
+        break;
+      }
+    return c;
+  };
+
+  // (side, rank) -> joint; rank 0 = foot/ankle, 1 = toe. Shallowest per key.
+  std::map<std::pair<char, int>, int> best;
+  for (int j = 0; j < joints && std::size_t(j) < names.size(); ++j) {
+    const std::string name = lower(names[std::size_t(j)]);
+    const bool foot =
+        name.find("foot") != std::string::npos || name.find("ankle") != std::string::npos;
+    const bool toe = name.find("toe") != std::string::npos;
+    if (!foot && !toe) continue;
+    const auto key = std::pair{side_of(name), foot ? 0 : 1};
+    const auto it = best.find(key);
+    if (it == best.end() || depth[std::size_t(j)] < depth[std::size_t(it->second)]) best[key] = j;
+  }
+  std::vector<FootChain> out;
+  for (char side : {'L', 'R', '?'}) {
+    auto it = best.find({side, 0});
+    if (it == best.end()) it = best.find({side, 1});
+    if (it != best.end()) out.push_back(chain_from(it->second, side));
+  }
+  if (!out.empty()) return out;
+
+  // No names: the two lowest leaves of the rest pose.
+  std::vector<Vec3> rest(static_cast<std::size_t>(joints));
+  std::vector<bool> has_child(std::size_t(joints), false);
+  for (int j = 0; j < joints; ++j) {
+    const int p = parents[std::size_t(j)];
+    const Vec3 o = std::size_t(j) < offsets.size() ? offsets[std::size_t(j)] : Vec3{};
+    rest[std::size_t(j)] = p < 0 ? o : rest[std::size_t(p)] + o;
+    if (p >= 0) has_child[std::size_t(p)] = true;
+  }
+  std::vector<int> leaves;
+  for (int j = 0; j < joints; ++j)
+    if (!has_child[std::size_t(j)] && parents[std::size_t(j)] >= 0) leaves.push_back(j);
+  std::stable_sort(leaves.begin(), leaves.end(),
+                   [&](int a, int b) { return rest[std::size_t(a)].y < rest[std::size_t(b)].y; });
+  for (std::size_t i = 0; i < leaves.size() && i < 2; ++i)
+    out.push_back(chain_from(leaves[i], '?'));
+  return out;
+}
+
+double rest_height(std::span<const int> parents, std::span<const Vec3> offsets,
+                   std::span<const std::pair<int, Vec3>> end_sites) {
+  const std::size_t joints = parents.size();
+  std::vector<Vec3> rest(joints);
+  double lo = INFINITY, hi = -INFINITY;
+  for (std::size_t j = 0; j < joints; ++j) {
+    const int p = parents[j];
+    const Vec3 o = j < offsets.size() ? offsets[j] : Vec3{};
+    // The root's offset places the whole body; its height is measured from the joints.
+    rest[j] = p < 0 ? Vec3{} : rest[std::size_t(p)] + o;
+    lo = std::min(lo, rest[j].y);
+    hi = std::max(hi, rest[j].y);
+  }
+  for (const auto& [joint, offset] : end_sites) {
+    if (joint < 0 || std::size_t(joint) >= joints) continue;
+    const double y = (rest[std::size_t(joint)] + offset).y;
+    lo = std::min(lo, y);
+    hi = std::max(hi, y);
+  }
+  return joints == 0 ? 0.0 : hi - lo;
+}
+
+std::vector<std::uint8_t> contact_mask(const std::vector<ContactInterval>& intervals, int frames) {
+  std::vector<std::uint8_t> mask(std::size_t(std::max(frames, 0)), 0);
+  for (const ContactInterval& c : intervals)
+    for (int t = std::max(c.begin, 0); t < std::min(c.end, frames); ++t) mask[std::size_t(t)] = 1;
+  return mask;
+}
+
+}  // namespace mocap

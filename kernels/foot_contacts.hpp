@@ -1,0 +1,79 @@
+#pragma once
+// Foot contacts: the frames where a foot is planted, as ../shared/spec/filters.md ("Metrics",
+// foot skating) defines them: near its lowest height and slow. Used by the skating metric (on
+// the reference) and by foot locking (on the input before filtering).
+//
+// Per foot point, from its global track p[t] (Y up, file units):
+//   floor      = the 5th percentile of its height over the clip (robust to a few low pops and
+//                to the frames of a clip that start mid-air);
+//   smoothed   = p convolved with a Gaussian of 0.04 s, so measurement noise of the evaluated
+//                levels (0.02 rad, 0.4 % of the body) does not read as speed;
+//   speed[t]   = |smoothed[t+1] - smoothed[t-1]| / (2 frame_time), horizontal (x, z) only;
+//   planted    enters when height - floor < enter_height and speed < enter_speed, and leaves
+//              when height - floor > exit_height or speed > exit_speed (hysteresis: noise near
+//              a threshold does not chatter); intervals shorter than min_seconds are dropped.
+// Thresholds are fractions of the body's height (per second for speeds), so the rule holds in
+// any unit and at any frame rate.
+#include <cstdint>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "kernels/quaternion.hpp"
+#include "kernels/status.hpp"
+#include "kernels/tensor.hpp"
+
+namespace mocap {
+
+struct ContactInterval {
+  int begin = 0;  // first planted frame
+  int end = 0;    // one past the last
+  int frames() const { return end - begin; }
+};
+
+struct FootContactParams {
+  double enter_height = 0.03;  // of body height above the foot's floor
+  double exit_height = 0.045;
+  double enter_speed = 0.25;  // body heights per second, horizontal
+  double exit_speed = 0.40;
+  double smoothing_seconds = 0.04;
+  double min_seconds = 0.05;
+
+  Status validate() const;
+};
+
+struct FootContactJob {
+  FootContactParams params;
+  TranslationView feet;  // [F][N][3] global positions of N foot points, Y up
+  double frame_time = 0;
+  double body_height = 0;                                         // file units, > 0
+  std::vector<std::vector<ContactInterval>>* contacts = nullptr;  // written: one list per foot
+
+  Status validate() const;
+  Status run() const;
+};
+
+// A leg by joint index (-1 = none): ankle is the foot point, knee its parent, hip the knee's
+// parent; toe is a child of the ankle when there is one.
+struct FootChain {
+  int hip = -1, knee = -1, ankle = -1, toe = -1;
+  char side = '?';  // 'L', 'R' or '?'
+};
+
+// The feet of a skeleton. By name first: per side (Left/Right, L/R prefix), the shallowest joint
+// whose name contains "foot" or "ankle" (else "toe"). Without such names: the two leaves lowest in
+// the rest pose (offsets only), each taken as the ankle. Chains shallower than three joints keep
+// -1 for what is missing. Parents precede children.
+std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<const int> parents,
+                                 std::span<const Vec3> offsets);
+
+// The skeleton's height in its rest pose (all rotations identity): the vertical extent of its
+// joints and of the given end-site points (joint, offset), in file units.
+double rest_height(std::span<const int> parents, std::span<const Vec3> offsets,
+                   std::span<const std::pair<int, Vec3>> end_sites);
+
+// True at frames inside one of the intervals.
+std::vector<std::uint8_t> contact_mask(const std::vector<ContactInterval>& intervals, int frames);
+
+}  // namespace mocap
