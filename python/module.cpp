@@ -37,6 +37,7 @@
 #include "kernels/metrics.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
+#include "kernels/position_metrics.hpp"
 #include "kernels/quaternion.hpp"
 #include "python/arrays.hpp"
 
@@ -907,6 +908,61 @@ PYBIND11_MODULE(mocap_clean, m) {
       py::arg("rotations"), py::arg("joint"), py::kw_only(), py::arg("frame_time") = 1.0 / 120.0,
       py::arg("scalar_first") = true,
       "|Log(q_t^-1 q_t+1)| / frame_time (rad/s) of one joint, F - 1 values.");
+
+  // Position metrics (kernels/position_metrics.hpp) on positions from forward_kinematics.
+  auto frame_range = [](int frames, int first, std::optional<int> last) {
+    return FrameRange{first, last.value_or(frames)};
+  };
+  auto two_positions = [](py::object result, py::object truth, const char* name) {
+    std::pair<Borrowed, Borrowed> p{borrow(result, 3, true, "result"),
+                                    borrow(truth, 3, true, "truth")};
+    if (p.first.frames != p.second.frames || p.first.joints != p.second.joints)
+      throw py::value_error(
+          fmt::format("{}: result ({}, {}, 3) and truth ({}, {}, 3) differ in shape", name,
+                      p.first.frames, p.first.joints, p.second.frames, p.second.joints));
+    return p;
+  };
+  m.def(
+      "mpjpe",
+      [=](py::object result, py::object truth, int first, std::optional<int> last) {
+        auto [a, b] = two_positions(result, truth, "mpjpe");
+        PositionSums sums;
+        py::gil_scoped_release release;
+        add_position_error(translation_view(a), translation_view(b),
+                           frame_range(a.frames, first, last), sums);
+        return sums.mpjpe();
+      },
+      py::arg("result"), py::arg("truth"), py::kw_only(), py::arg("first") = 0,
+      py::arg("last") = py::none(),
+      "Mean per-joint position error (spec 'Metrics'): mean over frames [first, last) and points "
+      "of |P_r - P_g|, in the file's length unit, of two (F, N, 3) position arrays "
+      "(forward_kinematics). NaN without samples.");
+  m.def(
+      "jitter",
+      [=](py::object positions, int first, std::optional<int> last) {
+        Borrowed a = borrow(positions, 3, true, "positions");
+        PositionSums sums;
+        py::gil_scoped_release release;
+        add_jitter(translation_view(a), frame_range(a.frames, first, last), sums);
+        return sums.jitter();
+      },
+      py::arg("positions"), py::kw_only(), py::arg("first") = 0, py::arg("last") = py::none(),
+      "Jitter (spec 'Metrics'): RMS over frames and points of |P[t+1] - 2 P[t] + P[t-1]| (length "
+      "unit per frame^2), second differences centred in [first, last).");
+  m.def(
+      "acceleration_error",
+      [=](py::object result, py::object truth, int first, std::optional<int> last) {
+        auto [a, b] = two_positions(result, truth, "acceleration_error");
+        PositionSums sums;
+        py::gil_scoped_release release;
+        add_acceleration_error(translation_view(a), translation_view(b),
+                               frame_range(a.frames, first, last), sums);
+        return sums.accel_error();
+      },
+      py::arg("result"), py::arg("truth"), py::kw_only(), py::arg("first") = 0,
+      py::arg("last") = py::none(),
+      "Acceleration error (spec 'Metrics'): RMS of the difference of the second differences of "
+      "result and truth positions (length unit per frame^2) over [first, last).");
 
   m.def(
       "forward_kinematics",

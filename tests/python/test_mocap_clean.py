@@ -199,6 +199,22 @@ Frame Time: 0.01
     assert sites.shape == (2, 1, 3)
 
 
+def test_position_metrics_on_known_tracks():
+    truth = np.zeros((10, 2, 3), np.float32)
+    truth[:, 0, 0] = np.arange(10)  # constant velocity: no jitter
+    result = truth.copy()
+    result[:, 1, 1] = 3.0           # one of two points off by 3 everywhere
+    assert mc.mpjpe(result, truth) == pytest.approx(1.5)
+    assert mc.mpjpe(result, truth, first=2, last=5) == pytest.approx(1.5)
+    assert mc.jitter(truth) == 0.0
+    bumped = truth.copy()
+    bumped[5, 0, 1] = 1.0           # second differences 1, -2, 1 at t = 4, 5, 6
+    assert mc.jitter(bumped) == pytest.approx(np.sqrt(6 / (8 * 2)))
+    assert mc.acceleration_error(bumped, truth) == pytest.approx(np.sqrt(6 / (8 * 2)))
+    with pytest.raises(ValueError, match="differ in shape"):
+        mc.mpjpe(result, truth[:5])
+
+
 def test_errors_carry_the_cli_messages():
     good = smooth_curve(frames=20, joints=2)
     with pytest.raises(ValueError, match=r"rotations must have shape \(F, J, 4\), got \(20, 2, 3\)"):
