@@ -32,5 +32,5 @@ cmake -S . -B "$build_dir" -G Ninja \
   -DMOCAP_BUILD_BENCH="${MOCAP_BUILD_BENCH:-ON}" >/dev/null
 cmake --build "$build_dir" -j "$(nproc)"
 if ls "$build_dir"/python/mocap_clean*.so >/dev/null 2>&1; then
-  echo "setup: the Python module is in $build_dir/python: export PYTHONPATH=$PWD/$build_dir/python" >&2
+  echo "setup: the Python module is in $build_dir/python: export PYTHONPATH=$(cd "$build_dir/python" && pwd)" >&2
 fi
