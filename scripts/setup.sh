@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev
   hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py python3-numpy
+  pybind11-dev python3-pybind11 python3-dev python3-pytest python3-scipy
   libopenmpi-dev openmpi-bin
 )
 missing=()
@@ -30,3 +31,6 @@ cmake -S . -B "$build_dir" -G Ninja \
   -DMOCAP_SANITIZE="${MOCAP_SANITIZE:-}" \
   -DMOCAP_BUILD_BENCH="${MOCAP_BUILD_BENCH:-ON}" >/dev/null
 cmake --build "$build_dir" -j "$(nproc)"
+if ls "$build_dir"/python/mocap_clean*.so >/dev/null 2>&1; then
+  echo "setup: the Python module is in $build_dir/python: export PYTHONPATH=$(cd "$build_dir/python" && pwd)" >&2
+fi
