@@ -23,6 +23,18 @@ struct ClipState {
   ClipConditioning conditioning;
 };
 
+// What this run does to the clip, kept with it in a library output.
+void record_provenance(const ClipState& state, io::ClipProvenance& p) {
+  const ResolvedSettings& r = state.resolved;
+  p.method = r.unchanged ? "unchanged" : std::string(to_string(r.settings.method));
+  // resolve_for_clip has replaced every automatic value with the clip's own.
+  p.parameters_json = r.settings.to_json().dump();
+  p.noise_sigma = r.noise_sigma;
+  p.pop_stage = !state.conditioning.pops.empty();
+  p.pops_repaired = state.conditioning.repaired;
+  p.pops = state.conditioning.pop_samples;
+}
+
 }  // namespace
 
 RunSummary run_job(const Job& job) {
@@ -70,6 +82,7 @@ RunSummary run_job(const Job& job) {
     ClipConditioning conditioning = condition_clip(settings, item.input);
     ClipState state{
         resolve_for_clip(settings, item.input, conditioning.garbage), {}, std::move(conditioning)};
+    if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);
