@@ -153,16 +153,23 @@ int run_cli(int argc, char** argv) {
       ->add_option("--model", noise.model, "gaussian: jitter on every sample; impulse: sparse pops")
       ->check(CLI::IsMember({"gaussian", "impulse"}))
       ->capture_default_str();
-  noise_cmd->add_option("--sigma", noise.sigma, "gaussian: per-axis standard deviation in rad")
+  noise_cmd
+      ->add_option("--sigma", noise.sigma,
+                   "gaussian: per-axis standard deviation in rad (or e.g. 2deg)")
+      ->transform(kAngle)
       ->check(kNonNegative)
       ->capture_default_str();
   noise_cmd->add_option("--rate", noise.rate, "impulse: probability per joint-sample")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
-  noise_cmd->add_option("--min-angle", noise.min_angle, "impulse: smallest pop in rad")
+  noise_cmd
+      ->add_option("--min-angle", noise.min_angle, "impulse: smallest pop in rad (or e.g. 2deg)")
+      ->transform(kAngle)
       ->check(kNonNegative)
       ->capture_default_str();
-  noise_cmd->add_option("--max-angle", noise.max_angle, "impulse: largest pop in rad")
+  noise_cmd
+      ->add_option("--max-angle", noise.max_angle, "impulse: largest pop in rad (or e.g. 2deg)")
+      ->transform(kAngle)
       ->check(kNonNegative)
       ->capture_default_str();
   noise_cmd->add_option("--seed", noise.seed, "the same seed and build give the same noise")

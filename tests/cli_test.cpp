@@ -489,6 +489,18 @@ TEST(Cli, AnglesTakeDegreesImplausibleValuesWarnAndMethodNamesIgnoreCase) {
   r = test::run_cli(base + " --overwrite --method bof --sigma-g tendeg");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("tendeg"), std::string::npos) << r.err;
+
+  // noise's angles too: 40deg (0.70 rad) exceeds a 0.5 rad maximum, 20deg (0.35 rad) does not.
+  const std::string lib = (out / "lib.h5").string();
+  r = test::run_cli("import '" + in.path().string() + "' -o '" + lib + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string noise = "noise '" + lib + "' -o '" + (out / "n.h5").string() +
+                            "' --model impulse --max-angle 0.5 --min-angle ";
+  r = test::run_cli(noise + "40deg");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--min-angle must not exceed --max-angle"), std::string::npos) << r.err;
+  r = test::run_cli(noise + "20deg");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
 }
 
 TEST(Cli, HelpStandsOnItsOwnAndEveryErrorIsPrefixed) {
