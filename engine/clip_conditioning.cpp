@@ -59,7 +59,9 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
                                             1.0 / frame_time >= kPopsRepairMinFps);
   std::vector<int> found(std::size_t(J), 0);
   std::vector<float> repaired;
+  std::vector<std::uint8_t> flagged;
   for (const Segment& seg : motion_segments(view, frame_time, flipping)) {
+    flagged.assign(std::size_t(seg.frames()) * std::size_t(J), 0);
     const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;
     repaired.resize(std::size_t(seg.frames()) * std::size_t(J) * 4);
     PopRepairJob job;
@@ -68,9 +70,15 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     job.io.filtered_rotations = {repaired.data(), seg.frames(), J};
     job.skip_joints = flipping;
     job.flagged_per_joint = found;
+    job.flagged_samples = flagged;
     job.repair = c.repaired;
     if (const Status s = job.run(); !s.ok()) throw std::runtime_error("pop repair: " + s.message());
     for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
+    for (std::size_t i = 0; i < flagged.size(); ++i)
+      if (flagged[i]) {
+        c.pop_samples.push_back(std::int32_t(seg.begin + int(i / std::size_t(J))));
+        c.pop_samples.push_back(std::int32_t(i % std::size_t(J)));
+      }
     if (c.repaired) std::copy(repaired.begin(), repaired.end(), rotations.data + offset);
   }
   return c;

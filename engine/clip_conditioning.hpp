@@ -17,10 +17,11 @@
 namespace mocap::engine {
 
 struct ClipConditioning {
-  std::vector<JointQuality> joints;   // per joint, as classified
-  std::vector<std::uint8_t> garbage;  // per joint: 1 = garbage
-  std::vector<int> pops;              // per joint: pops found (detect) or repaired (repair)
-  bool repaired = false;              // the pops were repaired (not only counted)
+  std::vector<JointQuality> joints;       // per joint, as classified
+  std::vector<std::uint8_t> garbage;      // per joint: 1 = garbage
+  std::vector<int> pops;                  // per joint: pops found (detect) or repaired (repair)
+  bool repaired = false;                  // the pops were repaired (not only counted)
+  std::vector<std::int32_t> pop_samples;  // [N][2]: frame, joint of each pop, frame order
   bool any_garbage() const;
   std::size_t pop_count() const;
 };

@@ -15,7 +15,7 @@ std::size_t BvhSource::cost(std::size_t i) const {
 }
 
 std::optional<io::Clip> BvhSource::read(std::size_t i, std::string* error) {
-  io::BvhReadResult result = io::read_bvh(files_[i].path);
+  io::BvhReadResult result = io::read_bvh(files_[i].path, keep_source_angles_);
   if (result.error) {
     if (error) *error = result.error->what();
     return std::nullopt;

@@ -28,7 +28,10 @@ class ClipSource {
 
 class BvhSource final : public ClipSource {
  public:
-  explicit BvhSource(std::vector<SourceFile> files) : files_(std::move(files)) {}
+  // `keep_source_angles`: keep each file's Euler values, so a BVH sink writes the source's
+  // branch of every angle (io::Clip::source_angles).
+  explicit BvhSource(std::vector<SourceFile> files, bool keep_source_angles = false)
+      : files_(std::move(files)), keep_source_angles_(keep_source_angles) {}
   std::size_t count() const override { return files_.size(); }
   std::string name(std::size_t i) const override { return files_[i].relative; }
   std::string clip_path(std::size_t i) const override;
@@ -38,6 +41,7 @@ class BvhSource final : public ClipSource {
 
  private:
   std::vector<SourceFile> files_;
+  bool keep_source_angles_;
 };
 
 class LibrarySource final : public ClipSource {

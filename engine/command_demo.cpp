@@ -82,6 +82,16 @@ int run_demo(const DemoCommand& command) {
   summary.extra["scores"] = scores;
   summary.extra["noise_sigma"] = command.noise_sigma;
   report(summary, command.run.json);
+  if (!command.run.json)
+    fmt::print(
+        stderr,
+        "\nNext, on your own files:\n"
+        "  mocap-clean clean MOCAP_FOLDER -o cleaned/    every .bvh below it, same layout\n"
+        "  mocap-clean clean a.bvh -o a-clean.bvh        one file\n"
+        "  mocap-clean info a.bvh                        joints, frame rate, garbage joints\n"
+        "  mocap-clean eval MOCAP_FOLDER -o report/      which method suits your captures\n"
+        "(mocap-clean is build/engine/mocap-clean; `cmake --install build` puts it on the "
+        "PATH.)\n");
   return summary.exit_status();
 }
 

@@ -2,6 +2,7 @@
 // (library -> BVH), noise (library -> noisy library) and info.
 #include <fmt/core.h>
 
+#include <cctype>
 #include <chrono>
 #include <numeric>
 #include <set>
@@ -366,6 +367,9 @@ int run_join(const JoinCommand& command) {
 }
 
 int run_info(const InfoCommand& command) {
+  std::string extension = fs::path(command.input).extension().string();
+  for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (extension == ".bvh") return run_info_bvh(command);
   std::string error;
   auto source = LibrarySource::open(command.input, &error);
   if (!source) return usage_error("info", error);

@@ -11,7 +11,9 @@ namespace mocap::engine {
 
 struct CleanCommand {
   std::vector<std::string> sources;
-  std::string output_dir;
+  std::string output_dir;  // a folder, or a file ending in .bvh when there is one source file
+  bool resume = false;     // keep the outputs an earlier run with the same parameters finished
+  bool overwrite = false;  // write into a folder that already holds files
   FilterOptions filter;
   RunOptions run;
 };
@@ -85,6 +87,8 @@ struct InfoCommand {
   bool joints = false;  // --joints: read every clip and name its garbage joints
 };
 int run_info(const InfoCommand& command);
+// info on one BVH file (run_info hands over when the file's name ends in .bvh).
+int run_info_bvh(const InfoCommand& command);
 
 // Prints the summary as JSON (stdout) or as a human line (stderr), and the failures (stderr).
 void report(const RunSummary& summary, bool json);

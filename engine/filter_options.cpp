@@ -1,7 +1,11 @@
 #include "engine/filter_options.hpp"
 
+#include <fmt/core.h>
+
 #include <limits>
 #include <string>
+
+#include "kernels/quaternion.hpp"
 
 namespace mocap::engine {
 
@@ -14,8 +18,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline\n"
                  "auto: the method and its parameters chosen per clip from its measured noise\n"
                  "none: copy (checks the round trip)")
-      ->check(CLI::IsMember(
-          {"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "auto"}))
+      ->transform(CLI::IsMember(
+          {"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "auto"},
+          CLI::ignore_case))
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--sigma-t", sigma_t,
@@ -29,7 +34,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->capture_default_str()
       ->group("Filter");
   cmd.add_option("--sigma-g", sigma_g,
-                 "bof: range width in radians, full rotation angle (0 = automatic, from the noise)")
+                 "bof: range width, full rotation angle, in rad or e.g. 10deg (0 = automatic, from "
+                 "the noise)")
+      ->transform(kAngle)
       ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
@@ -56,7 +63,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
-  cmd.add_option("--h", h, "nlpm: strength in radians (0 = automatic, from the estimated noise)")
+  cmd.add_option("--h", h,
+                 "nlpm: strength in rad or e.g. 2deg (0 = automatic, from the estimated noise)")
+      ->transform(kAngle)
       ->check(kNonNegative)
       ->capture_default_str()
       ->group("Filter");
@@ -66,7 +75,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->group("Filter");
   cmd.add_option("--nlpm-range", nlpm_range,
                  "nlpm: per-joint range term, off (the spec's nlpm), auto (5 x the estimated "
-                 "noise) or a width in radians: a joint that disagrees cannot drag the others")
+                 "noise) or a width in rad or e.g. 10deg: a joint that disagrees cannot drag the "
+                 "others")
+      ->transform(kAngle)
       ->check([](const std::string& v) -> std::string {
         if (v == "off" || v == "auto") return "";
         const std::optional<double> x = finite_number(v);
@@ -121,10 +132,16 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"keep", "filter"}))
       ->capture_default_str()
       ->group("Cleaning");
-  cmd.add_flag("--split-impossible", split_impossible,
-               "filter separately the segments between physically impossible steps (a joint "
-               "turning faster than min(150 rad/s x frame time, 2 rad) in one step, e.g. CMU's "
-               "synthetic T-pose frame 0), so no filter smears such a jump (eval: on by default)")
+  auto* split_on = cmd.add_flag(
+      "--split-impossible", split_impossible_on,
+      "filter separately the segments between physically impossible steps (a joint turning "
+      "faster than min(150 rad/s x frame time, 2 rad) in one step, e.g. CMU's synthetic T-pose "
+      "frame 0), so no filter smears such a jump. Default: on with --method auto, off with a "
+      "named method, which then is the spec's filter exactly");
+  split_on->group("Cleaning");
+  cmd.add_flag("--no-split-impossible", split_impossible_off,
+               "filter each clip whole, across impossible steps")
+      ->excludes(split_on)
       ->group("Cleaning");
   cmd.add_option("--translations", translations, "filter the position channels too, or keep them")
       ->check(CLI::IsMember({"filter", "keep"}))
@@ -170,13 +187,34 @@ FilterSettings FilterOptions::settings() const {
       s.method == Method::automatic ? PopsMode::automatic : PopsMode::off;
   s.pops = pops.empty() ? method_default : parse_pops_mode(pops).value_or(method_default);
   s.keep_garbage_joints = garbage_joints == "keep";
-  s.split_impossible = split_impossible;
+  // On by default where the engine chooses anyway (auto): CMU's T-pose frame 0 stays a T-pose.
+  s.split_impossible =
+      split_impossible_on || (!split_impossible_off && s.method == Method::automatic);
   s.nlpm.translation_sigma_t =
       translation_sigma_t == "auto" ? kAutomaticTranslationSigma : std::stod(translation_sigma_t);
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;
   return s;
+}
+
+std::vector<std::string> FilterOptions::warnings() const {
+  // Angles are full rotation angles in rad; a value past these is almost surely degrees given
+  // without "deg" (a bof range of pi/2 already treats every step as jitter).
+  constexpr double kRadiansPerDegree = kPi / 180.0;
+  std::vector<std::string> out;
+  auto check = [&](const char* name, double value, double limit, const char* why) {
+    if (value > limit)
+      out.push_back(
+          fmt::format("{} {:g} rad ({:.4g} deg) is implausible: {}; for degrees write "
+                      "{:g}deg",
+                      name, value, value / kRadiansPerDegree, why, value));
+  };
+  check("--sigma-g", sigma_g, kPi / 2, "steps smaller than it are smoothed as jitter");
+  check("--h", h, kPi / 2, "every pose counts as similar to every other");
+  if (nlpm_range != "off" && nlpm_range != "auto")
+    check("--nlpm-range", std::stod(nlpm_range), kPi, "no joint can disagree by more than pi");
+  return out;
 }
 
 void RunOptions::add_to(CLI::App& cmd) {

@@ -25,6 +25,18 @@ struct ClipState {
   MotionMeasure before, after;  // what a viewer sees, as read and as written
 };
 
+// What this run does to the clip, kept with it in a library output.
+void record_provenance(const ClipState& state, io::ClipProvenance& p) {
+  const ResolvedSettings& r = state.resolved;
+  p.method = r.unchanged ? "unchanged" : std::string(to_string(r.settings.method));
+  // resolve_for_clip has replaced every automatic value with the clip's own.
+  p.parameters_json = r.settings.to_json().dump();
+  p.noise_sigma = r.noise_sigma;
+  p.pop_stage = !state.conditioning.pops.empty();
+  p.pops_repaired = state.conditioning.repaired;
+  p.pops = state.conditioning.pop_samples;
+}
+
 }  // namespace
 
 RunSummary run_job(const Job& job) {
@@ -81,6 +93,7 @@ RunSummary run_job(const Job& job) {
                     std::move(conditioning),
                     std::move(before),
                     {}};
+    if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);

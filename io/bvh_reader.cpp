@@ -113,14 +113,16 @@ MotionHeader parse_motion_header(Cursor& cursor, int hierarchy_end_line) {
 // Blank lines are skipped. Tensors grow as lines arrive, never by the count in the header.
 class FrameReader {
  public:
-  FrameReader(Cursor& cursor, const Skeleton& skeleton, const MotionHeader& header, Clip& clip)
+  FrameReader(Cursor& cursor, const Skeleton& skeleton, const MotionHeader& header, Clip& clip,
+              bool keep_angles)
       : cursor_(cursor),
         header_(header),
         clip_(clip),
         columns_(columns_of(skeleton)),
         channels_(skeleton.channel_count()),
         joints_(skeleton.joint_count()),
-        values_(std::size_t(channels_)) {}
+        values_(std::size_t(channels_)),
+        keep_angles_(keep_angles) {}
 
   void run() {
     if (channels_ == 0 && header_.frames > 0)
@@ -204,6 +206,12 @@ class FrameReader {
     clip_.rotations.resize(r0 + std::size_t(joints_) * 4);
     clip_.translations.resize(t0 + std::size_t(joints_) * 3);
     float* rotation = clip_.rotations.data() + r0;
+    float* angles_out = nullptr;
+    if (keep_angles_) {
+      const std::size_t a0 = clip_.source_angles.size();
+      clip_.source_angles.resize(a0 + std::size_t(joints_) * 3, 0.0f);
+      angles_out = clip_.source_angles.data() + a0;
+    }
     float* translation = clip_.translations.data() + t0;
     for (const JointColumns& joint : columns_) {
       Quat q;
@@ -213,7 +221,10 @@ class FrameReader {
                                  values_[std::size_t(joint.rotation[1])] * kRadiansPerDegree,
                                  values_[std::size_t(joint.rotation[2])] * kRadiansPerDegree};
         q = euler_to_quat(joint.order, angles);
+        if (angles_out)
+          for (int i = 0; i < 3; ++i) angles_out[i] = float(angles[std::size_t(i)]);
       }
+      if (angles_out) angles_out += 3;
       store_quat(q, rotation);
       Vec3 t = joint.offset;
       if (joint.position[0] >= 0)
@@ -232,6 +243,7 @@ class FrameReader {
   int channels_;
   int joints_;
   std::vector<double> values_;
+  bool keep_angles_;
 };
 
 }  // namespace
@@ -241,7 +253,7 @@ std::string BvhError::what() const {
   return file + ":" + std::to_string(line) + ": " + message;
 }
 
-BvhReadResult parse_bvh(std::string_view text, const std::string& name) {
+BvhReadResult parse_bvh(std::string_view text, const std::string& name, bool keep_source_angles) {
   // A UTF-8 byte order mark is not part of the text.
   if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
   BvhReadResult result;
@@ -256,7 +268,7 @@ BvhReadResult parse_bvh(std::string_view text, const std::string& name) {
     clip.skeleton = skeleton;
     clip.frame_time = header.frame_time;
     clip.source = name;
-    FrameReader(cursor, *skeleton, header, clip).run();
+    FrameReader(cursor, *skeleton, header, clip, keep_source_angles).run();
     make_hemisphere_continuous(clip.rotation_span());
     result.clip = std::move(clip);
   } catch (const ParseError& e) {
@@ -267,7 +279,7 @@ BvhReadResult parse_bvh(std::string_view text, const std::string& name) {
   return result;
 }
 
-BvhReadResult read_bvh(const std::filesystem::path& path) {
+BvhReadResult read_bvh(const std::filesystem::path& path, bool keep_source_angles) {
   const std::string name = path.string();
   auto io_error = [&](const char* what) {
     BvhReadResult result;
@@ -288,7 +300,7 @@ BvhReadResult read_bvh(const std::filesystem::path& path) {
     if (n < sizeof buffer) break;
   }
   if (std::ferror(file.get())) return io_error("cannot read the file");
-  return parse_bvh(text, name);
+  return parse_bvh(text, name, keep_source_angles);
 }
 
 }  // namespace mocap::io

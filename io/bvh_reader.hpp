@@ -39,10 +39,12 @@ struct BvhReadResult {
   std::optional<BvhError> error;
 };
 
-// Parses BVH text. `name` names the text in error messages and becomes Clip::source.
-BvhReadResult parse_bvh(std::string_view text, const std::string& name);
+// Parses BVH text. `name` names the text in error messages and becomes Clip::source. With
+// `keep_source_angles`, Clip::source_angles holds the Euler channel values as read.
+BvhReadResult parse_bvh(std::string_view text, const std::string& name,
+                        bool keep_source_angles = false);
 
 // Reads the file, then parse_bvh with the path as name. I/O errors are BvhErrors with line 0.
-BvhReadResult read_bvh(const std::filesystem::path& path);
+BvhReadResult read_bvh(const std::filesystem::path& path, bool keep_source_angles = false);
 
 }  // namespace mocap::io

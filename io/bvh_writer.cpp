@@ -127,16 +127,27 @@ void append_frames(std::string& out, const Clip& clip) {
   std::vector<RotationOrder> orders(static_cast<std::size_t>(joints));
   for (int j = 0; j < joints; ++j)
     if (skeleton.has_rotation(j)) orders[std::size_t(j)] = skeleton.rotation_order(j);
-  // The angles written for the previous frame, so each curve continues where it was.
+  // The angles written for the previous frame, so each curve continues where it was; or, when
+  // the clip came from BVH, the source's own values for this sample: of the rotation's Euler
+  // solutions (two, each up to multiples of 2 pi) the one nearest what the source wrote, so a
+  // curve keeps the source's branch (e.g. a forearm written near 180 degrees) wherever the
+  // rotation did not change, and follows it closely where it did.
   std::vector<std::optional<EulerAngles>> previous(static_cast<std::size_t>(joints));
+  const std::size_t samples = std::size_t(clip.frames) * std::size_t(joints);
+  const bool follow_source = clip.source_angles.size() == samples * 3;
   const RotationView rotations = clip.rotation_view();
   const TranslationView translations = clip.translation_view();
   for (int t = 0; t < clip.frames; ++t) {
     bool first_value = true;
     for (int j = 0; j < joints; ++j) {
       std::optional<EulerAngles>& angles = previous[std::size_t(j)];
-      if (skeleton.has_rotation(j))
+      if (skeleton.has_rotation(j)) {
+        if (follow_source) {
+          const float* s = clip.source_angles.data() + (std::size_t(t) * joints + j) * 3;
+          angles = EulerAngles{s[0], s[1], s[2]};
+        }
         angles = quat_to_euler(orders[std::size_t(j)], load_quat(rotations.at(t, j)), angles);
+      }
       const float* translation = translations.at(t, j);
       int rotation_index = 0;
       for (Channel c : skeleton.channels[std::size_t(j)]) {

@@ -62,6 +62,7 @@ std::optional<EncodedClip> encode_clip(const Clip& clip, Compression compression
   out.frame_time = clip.frame_time;
   out.frames = clip.frames;
   out.source = clip.source;
+  out.provenance = clip.provenance;
   if (!encode_dataset(clip.rotations, clip.frames, clip.joints(), 4, compression, out.rotations) ||
       !encode_dataset(clip.translations, clip.frames, clip.joints(), 3, compression,
                       out.translations)) {

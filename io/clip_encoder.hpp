@@ -35,6 +35,7 @@ struct EncodedClip {
   double frame_time = 0;
   int frames = 0;
   std::string source;
+  ClipProvenance provenance;
   EncodedDataset rotations, translations;
 
   std::size_t stored_bytes() const { return rotations.bytes.size() + translations.bytes.size(); }

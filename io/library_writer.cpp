@@ -99,6 +99,24 @@ std::string write_encoded_motion(hid_t group, const char* name, const EncodedDat
   return {};
 }
 
+// The clip's provenance (README, "The library file"): attributes method, parameters,
+// noise_sigma, and the dataset pops [N, 2] (frame, joint) with attribute repaired.
+std::string write_clip_provenance(hid_t group, const ClipProvenance& p) {
+  if (p.method.empty()) return {};
+  if (!h5::write_string_attribute(group, "method", p.method) ||
+      !h5::write_string_attribute(group, "parameters", p.parameters_json) ||
+      (p.noise_sigma >= 0 && !h5::write_double_attribute(group, "noise_sigma", p.noise_sigma)))
+    return "cannot write its provenance attributes";
+  if (!p.pop_stage) return {};
+  const hsize_t dims[2] = {hsize_t(p.pops.size() / 2), 2};
+  if (!h5::write_dataset(group, "pops", H5T_STD_I32LE, H5T_NATIVE_INT32, dims, p.pops.data()))
+    return "cannot write dataset 'pops'";
+  const h5::Dataset pops(H5Dopen2(group, "pops", H5P_DEFAULT));
+  if (!pops || !h5::write_int_attribute(pops.get(), "repaired", p.pops_repaired ? 1 : 0))
+    return "cannot write the attributes of 'pops'";
+  return {};
+}
+
 std::string write_skeleton(hid_t skeletons, const std::string& name, const Skeleton& s) {
   const h5::Group group(H5Gcreate2(skeletons, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
   if (!group) return "cannot create skeleton group '" + name + "'";
@@ -269,6 +287,7 @@ bool LibraryWriter::write_clip(const std::string& clip_path, const Clip& clip, s
         if (problem.empty())
           problem = write_motion(group, "translations", clip.translations, frames, joints, 3,
                                  compression);
+        if (problem.empty()) problem = write_clip_provenance(group, clip.provenance);
         return problem;
       },
       error);
@@ -294,6 +313,7 @@ bool LibraryWriter::write_encoded(const std::string& clip_path, const EncodedCli
         if (problem.empty())
           problem = write_encoded_motion(group, "translations", clip.translations, frames, joints,
                                          3, compression);
+        if (problem.empty()) problem = write_clip_provenance(group, clip.provenance);
         return problem;
       },
       error);

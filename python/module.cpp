@@ -217,7 +217,7 @@ struct Common {
   std::string boundary;
   std::optional<std::string> pops;
   std::string garbage_joints;
-  bool split_impossible;
+  std::optional<bool> split_impossible;  // None: the CLI's default (on with auto)
   std::string translation_mode;
   int shard_joints, shard_frames, threads;
   bool return_info;
@@ -228,7 +228,8 @@ py::object run_filter(const std::string& method, py::handle data, Options option
   options.emplace_back("boundary", c.boundary);
   if (c.pops) options.emplace_back("pops", *c.pops);
   options.emplace_back("garbage-joints", c.garbage_joints);
-  if (c.split_impossible) options.emplace_back("split-impossible", "");
+  if (c.split_impossible)
+    options.emplace_back(*c.split_impossible ? "split-impossible" : "no-split-impossible", "");
   options.emplace_back("translations", c.translation_mode);
   options.emplace_back("shard-joints", std::to_string(c.shard_joints));
   options.emplace_back("shard-frames", std::to_string(c.shard_frames));
@@ -360,7 +361,7 @@ void assign_tensor(io::Clip& clip, std::vector<float>& target, py::handle value,
 #define MOCAP_COMMON_PARAMS                                                                 \
   py::object translations, std::optional<double> frame_time, bool scalar_first,             \
       const std::string &boundary, std::optional<std::string> pops,                         \
-      const std::string &garbage_joints, bool split_impossible,                             \
+      const std::string &garbage_joints, std::optional<bool> split_impossible,              \
       const std::string &translation_mode, int shard_joints, int shard_frames, int threads, \
       bool return_info
 #define MOCAP_COMMON_VALUES                                                                   \
@@ -371,7 +372,7 @@ void assign_tensor(io::Clip& clip, std::vector<float>& target, py::handle value,
 #define MOCAP_COMMON_ARGS                                                                         \
   py::arg("translations") = py::none(), py::arg("frame_time") = py::none(),                       \
   py::arg("scalar_first") = true, py::arg("boundary") = d.boundary, py::arg("pops") = py::none(), \
-  py::arg("garbage_joints") = d.garbage_joints, py::arg("split_impossible") = d.split_impossible, \
+  py::arg("garbage_joints") = d.garbage_joints, py::arg("split_impossible") = py::none(), \
   py::arg("translation_mode") = d.translations, py::arg("shard_joints") = d.shard_joints,         \
   py::arg("shard_frames") = d.shard_frames, py::arg("threads") = run.threads,                     \
   py::arg("return_info") = false
@@ -389,7 +390,8 @@ boundary: mirror | hold | extrapolate (--boundary).
 pops: None (the CLI's default: off for a named method, auto for auto), auto | repair | detect |
     off (--pops).
 garbage_joints: keep | filter (--garbage-joints).
-split_impossible: filter the segments between impossible steps separately (--split-impossible).
+split_impossible: filter the segments between impossible steps separately (--split-impossible,
+    --no-split-impossible); None: the CLI's default (on with auto, off with a named method).
 translation_mode: filter | keep (--translations).
 shard_joints, shard_frames: task sizes (--shard-joints, --shard-frames); no effect on the bits.
 threads: worker threads, 0 = all cores (--threads); no effect on the bits.

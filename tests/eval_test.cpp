@@ -46,7 +46,9 @@ void write_short_clips(const fs::path& dir) {
 }
 
 // "| 43.21 / 42.10 | 40.00 / 39.99 |": two cells, each two numbers with 2 decimals.
-bool two_pair_cells(const std::string& row) {
+bool two_pair_cells(std::string row) {
+  // A best point on the edge of its grid is marked "43.21* / 42.10": the mark is not a digit.
+  std::erase(row, '*');
   double a = 0, b = 0, c = 0, d = 0;
   if (std::sscanf(row.c_str(), "| %lf / %lf | %lf / %lf |", &a, &b, &c, &d) != 4) return false;
   // Exactly two decimals: re-read the digits after each point.

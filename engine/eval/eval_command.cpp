@@ -157,7 +157,9 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->group("Evaluation");
   command.run.add_to(*cmd);
   cmd->footer(
-      "Example:\n  mocap-clean eval ../shared/data/bvh -o eval-report\n"
+      "Examples:\n  mocap-clean eval mocap/ -o eval-report\n"
+      "  mocap-clean eval mocap/ -o calib --methods bof,nlpm --grid bof.sigma_g=0.05,0.1,0.2\n"
+      "  mocap-clean eval lib.h5 -o report --noise gaussian:0.03 --frame-step 4 --no-plots\n"
       "Each cell of the table: PSNR (dB) of the best grid point / of the automatic parameters,\n"
       "pooled over all clips. See README.md, \"eval\".");
   return cmd;
@@ -242,13 +244,25 @@ int run_eval(const EvalCommand& command) {
           fmt::print(stderr, "\reval: {}/{} runs{}", done, total, done == total ? "\n" : "");
       });
 
+  // Each grid point that could not run is named once (a cut-off above a 30 fps clip's Nyquist
+  // fails on every clip and condition alike), with its first reason and how often it failed.
   for (std::size_t m = 0; m < results.results.size(); ++m)
-    for (const auto& point : results.results[m])
-      for (const auto& condition : point)
-        for (std::size_t k = 0; k < condition.size(); ++k)
-          if (!condition[k].error.empty())
-            fmt::print(stderr, "mocap-clean: eval: {} on {}: {}\n", label(config.grids[m]),
-                       results.clips[k].name, condition[k].error);
+    for (std::size_t p = 0; p < results.results[m].size(); ++p) {
+      std::size_t failures = 0, runs = 0;
+      std::string first;
+      for (const auto& condition : results.results[m][p])
+        for (std::size_t k = 0; k < condition.size(); ++k) {
+          ++runs;
+          if (condition[k].error.empty()) continue;
+          if (failures++ == 0) first = results.clips[k].name + ": " + condition[k].error;
+        }
+      if (failures == 0) continue;
+      const auto& points = config.grids[m].points;
+      fmt::print(stderr, "mocap-clean: eval: {} {}: failed on {} of {} runs, left out ({})\n",
+                 label(config.grids[m]),
+                 p < points.size() ? describe(points[p]) : std::string("automatic"), failures, runs,
+                 first);
+    }
 
   std::vector<Figure> figures;
   if (command.plots && !write_figures(results, config, dir, &figures, &error))

@@ -31,6 +31,9 @@ std::size_t total_frames(const EvalResults& r) {
   return frames;
 }
 
+constexpr const char* kEdgeNote =
+    "; * best grid point on the edge of its grid (widen it with --grid)";
+
 // A table of one score per method and condition, "best / auto", plus the unfiltered row.
 Table score_table(const EvalResults& r, const EvalConfig& config, const std::string& caption,
                   const std::function<double(const Score&)>& metric, int decimals,
@@ -51,7 +54,10 @@ Table score_table(const EvalResults& r, const EvalConfig& config, const std::str
     for (std::size_t c = 0; c < config.conditions.size(); ++c) {
       const int best = best_point(r, config, m, c);
       const double b = best < 0 ? std::nan("") : metric(pooled(r, m, std::size_t(best), c));
-      row.push_back(number(b, decimals) + " / " +
+      // "*": the best point sits on the edge of its grid; the true best may lie beyond it.
+      const bool edge = best >= 0 && !edge_parameters(config.grids[m], std::size_t(best)).empty();
+      if (edge && t.caption.find(kEdgeNote) == std::string::npos) t.caption += kEdgeNote;
+      row.push_back(number(b, decimals) + (edge ? "*" : "") + " / " +
                     number(metric(pooled(r, m, automatic, c)), decimals));
     }
     t.rows.push_back(row);
@@ -68,7 +74,37 @@ Table best_parameter_table(const EvalResults& r, const EvalConfig& config) {
     std::vector<std::string> row{label(config.grids[m])};
     for (std::size_t c = 0; c < config.conditions.size(); ++c) {
       const int best = best_point(r, config, m, c);
-      row.push_back(best < 0 ? "n/a" : describe(config.grids[m].points[std::size_t(best)]));
+      std::string cell = best < 0 ? "n/a" : describe(config.grids[m].points[std::size_t(best)]);
+      std::string edges;
+      for (const std::string& e : best < 0 ? std::vector<std::string>{}
+                                           : edge_parameters(config.grids[m], std::size_t(best)))
+        edges += (edges.empty() ? "" : ", ") + e;
+      if (!edges.empty()) cell += " (edge: " + edges + ")";
+      row.push_back(cell);
+    }
+    t.rows.push_back(row);
+  }
+  return t;
+}
+
+// Per clip, how far the clips spread around the pooled score.
+Table spread_table(const EvalResults& r, const EvalConfig& config) {
+  Table t;
+  t.caption =
+      "Rotation PSNR per clip, dB: min / median / max over clips (best grid point; "
+      "automatic parameters)";
+  t.header.push_back("method");
+  for (const NoiseCondition& c : config.conditions) t.header.push_back(c.label());
+  auto text = [](const Spread& s) {
+    return number(s.min, 2) + " / " + number(s.median, 2) + " / " + number(s.max, 2);
+  };
+  for (std::size_t m = 0; m < config.grids.size(); ++m) {
+    std::vector<std::string> row{label(config.grids[m])};
+    for (std::size_t c = 0; c < config.conditions.size(); ++c) {
+      const int best = best_point(r, config, m, c);
+      row.push_back(
+          (best < 0 ? std::string("n/a") : text(psnr_spread(r, m, std::size_t(best), c))) + "; " +
+          text(psnr_spread(r, m, config.grids[m].points.size(), c)));
     }
     t.rows.push_back(row);
   }
@@ -303,6 +339,10 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
           per_clip.push_back(kj);
         }
         cj["clips"] = per_clip;
+        const Spread spread = psnr_spread(r, m, p, c);
+        cj["psnr_db_per_clip"] = {{"min", json_number(spread.min)},
+                                  {"median", json_number(spread.median)},
+                                  {"max", json_number(spread.max)}};
         per_condition.push_back(cj);
       }
       if (p < grid.points.size())
@@ -315,6 +355,11 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
     for (std::size_t c = 0; c < config.conditions.size(); ++c)
       best.push_back(best_point(r, config, m, c));
     mj["best_point"] = best;
+    nlohmann::json edges = nlohmann::json::array();
+    for (const auto& b : best)
+      edges.push_back(b.get<int>() < 0 ? std::vector<std::string>{}
+                                       : edge_parameters(grid, std::size_t(b.get<int>())));
+    mj["best_point_edge_parameters"] = edges;
     methods.push_back(mj);
   }
   j["methods"] = methods;
@@ -344,6 +389,7 @@ std::string html_report(const EvalResults& r, const EvalConfig& config,
       r.filter_seconds, escape_xml(command_line));
   const std::vector<Table> tables = all_tables(r, config);
   html += to_html(tables.front());
+  html += to_html(spread_table(r, config));
   html += "<h2>Figures</h2>\n";
   for (const Figure& f : figures)
     html += fmt::format("<figure><img src=\"{}\" alt=\"{}\"><figcaption>{}</figcaption></figure>\n",

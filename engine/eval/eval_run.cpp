@@ -231,6 +231,36 @@ Score pooled_noisy(const EvalResults& results, std::size_t c) {
   return s;
 }
 
+std::vector<std::string> edge_parameters(const MethodGrid& grid, std::size_t p) {
+  std::vector<std::string> out;
+  if (p >= grid.points.size()) return out;
+  const ParamPoint& point = grid.points[p];
+  for (std::size_t i = 0; i < point.size(); ++i) {
+    double lo = point[i].second, hi = point[i].second;
+    for (const ParamPoint& other : grid.points)
+      if (i < other.size() && other[i].first == point[i].first) {
+        lo = std::min(lo, other[i].second);
+        hi = std::max(hi, other[i].second);
+      }
+    if (lo < hi && (point[i].second == lo || point[i].second == hi)) out.push_back(point[i].first);
+  }
+  return out;
+}
+
+Spread psnr_spread(const EvalResults& results, std::size_t m, std::size_t p, std::size_t c) {
+  std::vector<double> v;
+  for (const TaskResult& t : results.results[m][p][c])
+    if (t.error.empty() && std::isfinite(t.score.psnr())) v.push_back(t.score.psnr());
+  Spread s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  s.min = v.front();
+  s.max = v.back();
+  const std::size_t n = v.size();
+  s.median = n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  return s;
+}
+
 int best_point(const EvalResults& results, const EvalConfig& config, std::size_t m, std::size_t c) {
   int best = -1;
   double best_psnr = -std::numeric_limits<double>::infinity();

@@ -4,6 +4,7 @@
 // clean clip. All (clip x condition x method x point) tasks run in one tbb::parallel_for; each is
 // a pure function of its indices (noise seeded by --seed, clip path and condition), and results
 // are stored by index, so the report is identical for any thread count.
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -92,6 +93,15 @@ Score pooled(const EvalResults& results, std::size_t m, std::size_t p, std::size
 Score pooled_noisy(const EvalResults& results, std::size_t c);
 // The grid point with the highest pooled PSNR (NaN scores lose), or -1 when none scored.
 int best_point(const EvalResults& results, const EvalConfig& config, std::size_t m, std::size_t c);
+// The parameters of grid point p that sit at the lowest or highest value of their axis (axes of
+// one value do not count): a best point there may lie beyond the grid, which should be widened.
+std::vector<std::string> edge_parameters(const MethodGrid& grid, std::size_t p);
+// Min, median and max over clips of method m, point p, condition c (clips that failed left
+// out); NaN when none scored.
+struct Spread {
+  double min = NAN, median = NAN, max = NAN;
+};
+Spread psnr_spread(const EvalResults& results, std::size_t m, std::size_t p, std::size_t c);
 
 // Filters every segment of noisy clip (clip, condition) with a method into `out` (sized like the
 // clip); the one place where the segments are applied. `resolved` may be null.
