@@ -5,6 +5,7 @@
 #include "engine/automatic_tally.hpp"
 #include "engine/clip_conditioning.hpp"
 #include "engine/commands.hpp"
+#include "engine/foot_stage.hpp"
 #include "engine/job.hpp"
 
 namespace mocap::engine {
@@ -32,7 +33,7 @@ void report(const RunSummary& summary, bool json) {
              summary.threads,
              summary.failed.empty() ? "" : fmt::format(", {} failed", summary.failed.size()),
              summary.interrupted ? ", interrupted" : "",
-             describe_conditioning(j) + describe_automatic(j));
+             describe_conditioning(j) + describe_automatic(j) + describe_feet(j));
 }
 
 RunSummary clean_files(const std::vector<SourceFile>& files, const std::string& output_dir,

@@ -111,6 +111,12 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"keep", "filter"}))
       ->capture_default_str()
       ->group("Cleaning");
+  cmd.add_option("--feet", feet,
+                 "after the filter: lock each planted foot (contacts found on the input) in "
+                 "place by two-bone IK on its leg, blended in and out over 0.1 s; off: leave the "
+                 "filter's result. Default: lock with --method auto; off with a named method")
+      ->check(CLI::IsMember({"lock", "off"}))
+      ->group("Cleaning");
   cmd.add_flag("--split-impossible", split_impossible,
                "filter separately the segments between physically impossible steps (a joint "
                "turning faster than min(150 rad/s x frame time, 2 rad) in one step, e.g. CMU's "
@@ -160,6 +166,7 @@ FilterSettings FilterOptions::settings() const {
       s.method == Method::automatic ? PopsMode::automatic : PopsMode::off;
   s.pops = pops.empty() ? method_default : parse_pops_mode(pops).value_or(method_default);
   s.keep_garbage_joints = garbage_joints == "keep";
+  s.lock_feet = feet.empty() ? s.method == Method::automatic : feet == "lock";
   s.split_impossible = split_impossible;
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;

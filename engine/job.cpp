@@ -9,6 +9,7 @@
 #include "engine/automatic_tally.hpp"
 #include "engine/clip_checks.hpp"
 #include "engine/clip_conditioning.hpp"
+#include "engine/foot_stage.hpp"
 #include "engine/interrupt.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/progress.hpp"
@@ -21,6 +22,7 @@ struct ClipState {
   ResolvedSettings resolved;
   std::any prepared;  // the sink's form of the finished clip
   ClipConditioning conditioning;
+  ClipFeet feet;  // with lock_feet: found on the input, locked on the output
 };
 
 }  // namespace
@@ -49,6 +51,8 @@ RunSummary run_job(const Job& job) {
   tally.mode = settings.pops;
   tally.keep_garbage = settings.keep_garbage_joints;
   AutomaticTally automatic;
+  FeetTally feet;
+  feet.lock = settings.lock_feet && settings.method != Method::none;
   PipelineStages stages;
   stages.count = selection.size();
   stages.read = [&](WorkItem& item) {
@@ -68,8 +72,12 @@ RunSummary run_job(const Job& job) {
     // written by another tool may not be. Same rotations, so harmless for `none`.
     make_hemisphere_continuous(item.input.rotation_span());
     ClipConditioning conditioning = condition_clip(settings, item.input);
-    ClipState state{
-        resolve_for_clip(settings, item.input, conditioning.garbage), {}, std::move(conditioning)};
+    ClipState state{resolve_for_clip(settings, item.input, conditioning.garbage),
+                    {},
+                    std::move(conditioning),
+                    {}};
+    // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
+    if (feet.lock) state.feet = detect_feet(item.input);
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);
@@ -87,6 +95,11 @@ RunSummary run_job(const Job& job) {
   };
   stages.finish = [&](WorkItem& item) {
     item.input = {};  // free the input early: only the output goes on
+    if (feet.lock) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      if (const Status s = lock_feet(state.feet, item.output); !s.ok())
+        return item.fail("foot lock: " + s.message());
+    }
     if (job.transform) {
       if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
         return item.fail(s.message());
@@ -109,6 +122,7 @@ RunSummary run_job(const Job& job) {
       const auto& state = std::any_cast<const ClipState&>(item.context);
       tally.add(item.name, item.output, state.conditioning);
       automatic.add(item.name, state.resolved);
+      if (feet.lock) feet.add(item.name, item.output, state.feet);
     } else {
       summary.failed.push_back({item.name, item.error});
     }
@@ -121,7 +135,10 @@ RunSummary run_job(const Job& job) {
   const std::size_t read = run_pipeline(stages, options);
   progress.finish();
   summary.interrupted = read < selection.size();
-  if (settings.method != Method::none) tally.write_to(summary.extra);
+  if (settings.method != Method::none) {
+    tally.write_to(summary.extra);
+    feet.write_to(summary.extra);
+  }
   automatic.write_to(summary.extra);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
