@@ -272,8 +272,15 @@ Status FootLockJob::run() const {
                                                 std::vector<LegFrame>(std::size_t(frames)));
   std::vector<Quat> rotation(static_cast<std::size_t>(joints));
   std::vector<Vec3> position(static_cast<std::size_t>(joints));
+  // Only the legs and their ancestors are needed (a third of a CMU skeleton).
+  std::vector<std::uint8_t> needed(std::size_t(joints), 0);
+  for (const FootChain& leg : chains)
+    for (int j = leg.toe >= 0 ? leg.toe : leg.ankle; j >= 0 && !needed[std::size_t(j)];
+         j = parents[std::size_t(j)])
+      needed[std::size_t(j)] = 1;
   auto forward = [&](int t) {
     for (int j = 0; j < joints; ++j) {
+      if (!needed[std::size_t(j)]) continue;
       const Quat q = load_quat(rotations.at(t, j));
       const Vec3 local = !translated_joints.empty() && translated_joints[std::size_t(j)] != 0
                              ? load_vec3(translations.at(t, j))
