@@ -12,8 +12,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <random>
 
+#include "engine/eval/svg_plot.hpp"
 #include "engine/filter_options.hpp"
 #include "engine/foot_stage.hpp"
 #include "engine/job.hpp"
@@ -175,6 +178,53 @@ Loaded load(int step) {
   return out;
 }
 
+// With MOCAP_FEET_FIGURE=PATH: the README's figure, the horizontal track of one ankle during
+// one contact of `clip` (its longest, with 0.04 s either side), capture / --feet off / lock, as
+// the horizontal distance from where the capture's ankle stands at the contact's middle.
+void write_figure(const std::string& name, const io::Clip& capture, const io::Clip& off,
+                  const io::Clip& on, const engine::ClipFeet& feet) {
+  const char* path = std::getenv("MOCAP_FEET_FIGURE");
+  if (path == nullptr || feet.legs.empty()) return;
+  const ContactInterval* longest = nullptr;
+  for (const ContactInterval& c : feet.contacts[0])
+    if (longest == nullptr || c.frames() > longest->frames()) longest = &c;
+  if (longest == nullptr) return;
+  const int ankle = feet.legs[0].ankle, J = capture.joints();
+  const int margin = int(std::lround(0.04 / capture.frame_time));
+  const int first = std::max(1, longest->begin - margin),
+            last = std::min(capture.frames, longest->end + margin);
+  const std::vector<float> pc = positions(capture), po = positions(off), pl = positions(on);
+  const int middle = (longest->begin + longest->end) / 2;
+  const Vec3 origin =
+      load_vec3(&pc[(std::size_t(middle) * std::size_t(J) + std::size_t(ankle)) * 3]);
+  engine::eval::LinePlot plot;
+  plot.title = name + ": " + capture.skeleton->joint_names[std::size_t(ankle)] +
+               " during a contact (frames " + std::to_string(longest->begin) + "-" +
+               std::to_string(longest->end) + ")";
+  plot.x_label = "time (s)";
+  plot.y_label = "horizontal distance from the planted ankle (file units)";
+  auto track = [&](const std::vector<float>& p, const std::string& label, const std::string& color,
+                   bool dashed) {
+    engine::eval::PlotSeries s;
+    s.name = label;
+    s.color = color;
+    s.dashed = dashed;
+    for (int t = first; t < last; ++t) {
+      const Vec3 v =
+          load_vec3(&p[(std::size_t(t) * std::size_t(J) + std::size_t(ankle)) * 3]) - origin;
+      s.x.push_back(t * capture.frame_time);
+      s.y.push_back(std::hypot(v.x, v.z));
+    }
+    plot.series.push_back(s);
+  };
+  track(pc, "capture", "#444444", true);
+  track(po, "clean --feet off", "#d62728", false);
+  track(pl, "clean (feet locked)", "#1f77b4", false);
+  std::ofstream out(path);
+  out << engine::eval::render_svg(plot);
+  ASSERT_TRUE(out.good()) << path;
+}
+
 class FootSkating : public ::testing::TestWithParam<int> {};
 
 // Without noise: skating <= 1.05x the capture's on every clip (knee peaks printed).
@@ -197,6 +247,8 @@ TEST_P(FootSkating, CleanDefaultsKeepTheCapturesSkating) {
                 off.skating / in.skating, on.skating / in.skating, off.knee_peak / in.knee_peak,
                 on.knee_peak / in.knee_peak);
     EXPECT_LE(on.skating, 1.05 * in.skating) << data.names[i];
+    if (step == 1 && data.names[i] == "cmu_mb_02_01")
+      write_figure(data.names[i], data.clips[i], unlocked[i], locked[i], feet);
   }
 }
 
