@@ -356,7 +356,8 @@ Status FootLockJob::run() const {
       const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
       if (norm(n) > 1e-9 * (l1 * l1 + l2 * l2)) normal[l] = (1 / norm(n)) * n;
       if (!active[l][std::size_t(t)]) continue;
-      target[l] = f.ankle + offset[l][std::size_t(t)];
+      // The horizontal offset only (header: the height would move the knee).
+      target[l] = f.ankle + Vec3{offset[l][std::size_t(t)].x, 0, offset[l][std::size_t(t)].z};
       reach[l] = std::min(l1 + l2, std::max(params.max_reach * (l1 + l2), norm(f.ankle - f.hip)));
       const Vec3 to_target = target[l] - f.hip;
       if (norm(to_target) <= reach[l] || !lowerable(root[l])) continue;
