@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kernels/bilateral.hpp"
+#include "kernels/foot_lock.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
@@ -113,6 +114,54 @@ BENCHMARK(BM_PopRepair)
     ->Args({0, 31, 1000})
     ->Args({1, 31, 1000})
     ->Unit(benchmark::kMillisecond);
+
+// Foot locking (README "Feet") on the bof fixture's motion, 31 joints x 1000 frames: a chain
+// skeleton with two legs (hip, knee, ankle, toe), each with four contacts of 150 frames (60 % of
+// the clip locked). Each iteration restores the motion, then locks it in place; compare with
+// BM_Bof/fast:1/J:31/F:1000.
+void BM_FootLock(benchmark::State& state) {
+  const int frames = 1000, joints = 31;
+  Fixture f(frames, joints);
+  std::vector<int> parents(joints);
+  std::vector<Vec3> offsets(joints, Vec3{0, 0.1, 0});
+  for (int j = 0; j < joints; ++j) parents[std::size_t(j)] = j - 1;  // a spine chain...
+  const int legs_begin = joints - 8;
+  for (int side = 0; side < 2; ++side) {  // ...and two legs from the root
+    const int hip = legs_begin + 4 * side;
+    parents[std::size_t(hip)] = 0;
+    offsets[std::size_t(hip)] = {side ? -0.1 : 0.1, 0, 0};
+    for (int k = 1; k < 4; ++k) {
+      parents[std::size_t(hip + k)] = hip + k - 1;
+      offsets[std::size_t(hip + k)] = k < 3 ? Vec3{0, -0.45, 0} : Vec3{0, -0.05, 0.12};
+    }
+  }
+  std::vector<FootChain> legs;
+  for (int side = 0; side < 2; ++side) {
+    const int hip = legs_begin + 4 * side;
+    legs.push_back({hip, hip + 1, hip + 2, hip + 3, side ? 'R' : 'L'});
+  }
+  std::vector<std::vector<ContactInterval>> contacts(2);
+  for (int c = 0; c < 4; ++c) {
+    contacts[0].push_back({c * 250, c * 250 + 150});
+    contacts[1].push_back({c * 250 + 100, c * 250 + 250});
+  }
+  std::vector<float> translations(std::size_t(frames) * joints * 3, 0.0f);
+  FootLockJob job;
+  job.parents = parents;
+  job.offsets = offsets;
+  job.frame_time = 1.0 / 120;
+  job.rotations = {f.out.data(), frames, joints};
+  job.translations = {translations.data(), frames, joints};
+  job.legs = legs;
+  job.contacts = contacts;
+  for (auto _ : state) {
+    std::copy(f.in.begin(), f.in.end(), f.out.begin());
+    if (!job.run().ok()) state.SkipWithError("foot lock failed");
+    benchmark::DoNotOptimize(f.out.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_FootLock)->Unit(benchmark::kMillisecond);
 
 void BM_Gaussian(benchmark::State& state) {
   Fixture f(int(state.range(2)), int(state.range(1)));

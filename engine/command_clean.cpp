@@ -13,6 +13,7 @@
 #include "engine/automatic_tally.hpp"
 #include "engine/clip_conditioning.hpp"
 #include "engine/commands.hpp"
+#include "engine/foot_stage.hpp"
 #include "engine/job.hpp"
 #include "engine/motion_check.hpp"
 #include "engine/version.hpp"
@@ -124,15 +125,16 @@ void report(const RunSummary& summary, bool json) {
     fmt::print("{}\n", j.dump());
     return;
   }
-  fmt::print(stderr,
-             "{}: {} clips, {} frames, {} joint-frames in {:.2f} s ({:.2f} M joint-frames/s, {} "
-             "threads){}{}\n{}",
-             summary.command, summary.clips, summary.frames, summary.joint_frames, summary.seconds,
-             summary.seconds > 0 ? double(summary.joint_frames) / summary.seconds / 1e6 : 0.0,
-             summary.threads,
-             summary.failed.empty() ? "" : fmt::format(", {} failed", summary.failed.size()),
-             summary.interrupted ? ", interrupted" : "",
-             describe_conditioning(j) + describe_automatic(j) + describe_motion(j));
+  fmt::print(
+      stderr,
+      "{}: {} clips, {} frames, {} joint-frames in {:.2f} s ({:.2f} M joint-frames/s, {} "
+      "threads){}{}\n{}",
+      summary.command, summary.clips, summary.frames, summary.joint_frames, summary.seconds,
+      summary.seconds > 0 ? double(summary.joint_frames) / summary.seconds / 1e6 : 0.0,
+      summary.threads,
+      summary.failed.empty() ? "" : fmt::format(", {} failed", summary.failed.size()),
+      summary.interrupted ? ", interrupted" : "",
+      describe_conditioning(j) + describe_automatic(j) + describe_feet(j) + describe_motion(j));
 }
 
 RunSummary clean_files(const std::vector<SourceFile>& files, const std::string& output_dir,

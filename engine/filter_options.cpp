@@ -132,6 +132,12 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"keep", "filter"}))
       ->capture_default_str()
       ->group("Cleaning");
+  cmd.add_option("--feet", feet,
+                 "after the filter: lock each planted foot (contacts found on the input) in "
+                 "place by two-bone IK on its leg, blended in and out over 0.1 s; off: leave the "
+                 "filter's result. Default: lock with --method auto; off with a named method")
+      ->check(CLI::IsMember({"lock", "off"}))
+      ->group("Cleaning");
   auto* split_on = cmd.add_flag(
       "--split-impossible", split_impossible_on,
       "filter separately the segments between physically impossible steps (a joint turning "
@@ -192,6 +198,7 @@ FilterSettings FilterOptions::settings() const {
       split_impossible_on || (!split_impossible_off && s.method == Method::automatic);
   s.nlpm.translation_sigma_t =
       translation_sigma_t == "auto" ? kAutomaticTranslationSigma : std::stod(translation_sigma_t);
+  s.lock_feet = feet.empty() ? s.method == Method::automatic : feet == "lock";
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;

@@ -174,6 +174,7 @@ nlohmann::json FilterSettings::to_json() const {
   if (method != Method::none) {
     j["pops"] = std::string(to_string(pops));
     if (pops != PopsMode::off) j["garbage_joints"] = keep_garbage_joints ? "keep" : "filter";
+    if (lock_feet) j["feet"] = "lock";
   }
   switch (method) {
     case Method::none:

@@ -90,6 +90,9 @@ struct FilterSettings {
   // both off: the spec's filter exactly, on every joint.
   PopsMode pops = PopsMode::off;
   bool keep_garbage_joints = true;  // --garbage-joints keep|filter (with pops detect|repair)
+  // After the filter (not for `none`): pin the planted feet, contacts found on the input
+  // (engine/foot_stage.hpp). --feet lock|off; lock by default with --method auto only.
+  bool lock_feet = false;
   double nlpm_range = 0;            // nlpm's range_sigma: 0 off, < 0 automatic, > 0 given (rad)
   // Filter each segment between physically impossible steps (kernels/motion_split.hpp: CMU's
   // synthetic T-pose frame 0) as a clip of its own.

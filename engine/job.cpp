@@ -9,6 +9,7 @@
 #include "engine/automatic_tally.hpp"
 #include "engine/clip_checks.hpp"
 #include "engine/clip_conditioning.hpp"
+#include "engine/foot_stage.hpp"
 #include "engine/interrupt.hpp"
 #include "engine/motion_check.hpp"
 #include "engine/pipeline.hpp"
@@ -23,6 +24,7 @@ struct ClipState {
   std::any prepared;  // the sink's form of the finished clip
   ClipConditioning conditioning;
   MotionMeasure before, after;  // what a viewer sees, as read and as written
+  ClipFeet feet;                // with lock_feet: found on the input, locked on the output
 };
 
 // What this run does to the clip, kept with it in a library output.
@@ -67,6 +69,8 @@ RunSummary run_job(const Job& job) {
   // transforms of `noise`, whose point is to change the motion).
   const bool measure = settings.method != Method::none && !job.transform;
   MotionTally motion;
+  FeetTally feet;
+  feet.lock = settings.lock_feet && settings.method != Method::none;
   PipelineStages stages;
   stages.count = selection.size();
   stages.read = [&](WorkItem& item) {
@@ -92,8 +96,11 @@ RunSummary run_job(const Job& job) {
                     {},
                     std::move(conditioning),
                     std::move(before),
+                    {},
                     {}};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
+    // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
+    if (feet.lock) state.feet = detect_feet(item.input);
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);
@@ -111,6 +118,11 @@ RunSummary run_job(const Job& job) {
   };
   stages.finish = [&](WorkItem& item) {
     item.input = {};  // free the input early: only the output goes on
+    if (feet.lock) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      if (const Status s = lock_feet(state.feet, item.output); !s.ok())
+        return item.fail("foot lock: " + s.message());
+    }
     if (measure) {
       auto& state = std::any_cast<ClipState&>(item.context);
       state.after = measure_motion(item.output, &state.before);
@@ -138,6 +150,7 @@ RunSummary run_job(const Job& job) {
       tally.add(item.name, item.output, state.conditioning);
       automatic.add(item.name, state.resolved);
       if (measure) motion.add(item.name, state.before, state.after);
+      if (feet.lock) feet.add(item.name, item.output, state.feet);
     } else {
       summary.failed.push_back({item.name, item.error});
     }
@@ -150,7 +163,10 @@ RunSummary run_job(const Job& job) {
   const std::size_t read = run_pipeline(stages, options);
   progress.finish();
   summary.interrupted = read < selection.size();
-  if (settings.method != Method::none) tally.write_to(summary.extra);
+  if (settings.method != Method::none) {
+    tally.write_to(summary.extra);
+    feet.write_to(summary.extra);
+  }
   automatic.write_to(summary.extra);
   motion.write_to(summary.extra);
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

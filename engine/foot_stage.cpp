@@ -1,0 +1,119 @@
+#include "engine/foot_stage.hpp"
+
+#include <fmt/format.h>
+
+#include <utility>
+
+#include "kernels/forward_kinematics.hpp"
+
+namespace mocap::engine {
+namespace {
+
+std::vector<std::uint8_t> translated_joints(const io::Skeleton& skeleton) {
+  std::vector<std::uint8_t> out(std::size_t(skeleton.joint_count()));
+  for (int j = 0; j < skeleton.joint_count(); ++j)
+    out[std::size_t(j)] = skeleton.has_translation(j);
+  return out;
+}
+
+}  // namespace
+
+ClipFeet detect_feet(const io::Clip& clip) {
+  ClipFeet feet;
+  if (!clip.skeleton || clip.frames == 0) return feet;
+  const io::Skeleton& sk = *clip.skeleton;
+  for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
+    if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
+  if (feet.legs.empty()) return feet;
+  const int J = sk.joint_count();
+  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(J) * 3);
+  const std::vector<std::uint8_t> translated = translated_joints(sk);
+  ForwardKinematicsJob fk;
+  fk.parents = sk.parents;
+  fk.offsets = sk.offsets;
+  fk.rotations = clip.rotation_view();
+  fk.translations = clip.translation_view();
+  fk.translated_joints = translated;
+  fk.positions = {positions.data(), clip.frames, J};
+  if (!fk.run().ok()) return {};  // checked clips always pass; nothing to lock otherwise
+  const int N = int(feet.legs.size());
+  std::vector<float> ankles(std::size_t(clip.frames) * std::size_t(N) * 3);
+  for (int t = 0; t < clip.frames; ++t)
+    for (int n = 0; n < N; ++n) {
+      const float* p = fk.positions.at(t, feet.legs[std::size_t(n)].ankle);
+      std::copy(p, p + 3, &ankles[(std::size_t(t) * std::size_t(N) + std::size_t(n)) * 3]);
+    }
+  std::vector<std::pair<int, Vec3>> sites;
+  for (int j = 0; j < J; ++j)
+    if (sk.end_sites[std::size_t(j)]) sites.emplace_back(j, *sk.end_sites[std::size_t(j)]);
+  FootContactJob contacts;
+  contacts.feet = {ankles.data(), clip.frames, N};
+  contacts.frame_time = clip.frame_time;
+  contacts.body_height = rest_height(sk.parents, sk.offsets, sites);
+  contacts.contacts = &feet.contacts;
+  if (!contacts.run().ok()) return {};  // a flat skeleton (no height): no feet to find
+  return feet;
+}
+
+Status lock_feet(ClipFeet& feet, io::Clip& filtered, const FootLockParams& params) {
+  if (feet.legs.empty()) return {};
+  const io::Skeleton& sk = *filtered.skeleton;
+  const std::vector<std::uint8_t> translated = translated_joints(sk);
+  FootLockJob job;
+  job.params = params;
+  job.parents = sk.parents;
+  job.offsets = sk.offsets;
+  job.translated_joints = translated;
+  job.frame_time = filtered.frame_time;
+  job.rotations = filtered.rotation_span();
+  job.translations = filtered.translation_span();
+  job.legs = feet.legs;
+  job.contacts = feet.contacts;
+  job.stats = &feet.stats;
+  if (Status s = job.run(); !s) return s;
+  feet.locked = true;
+  return {};
+}
+
+void FeetTally::add(const std::string& clip, const io::Clip& data, const ClipFeet& feet) {
+  ++clips;
+  nlohmann::json legs = nlohmann::json::array();
+  for (std::size_t l = 0; l < feet.legs.size(); ++l) {
+    nlohmann::json intervals = nlohmann::json::array();
+    for (const ContactInterval& c : feet.contacts[l]) intervals.push_back({c.begin, c.end});
+    contacts += feet.contacts[l].size();
+    legs.push_back({{"joint", data.skeleton->joint_names[std::size_t(feet.legs[l].ankle)]},
+                    {"contacts", feet.contacts[l].size()},
+                    {"intervals", std::move(intervals)}});
+  }
+  locked_frames += std::size_t(feet.stats.locked_frames);
+  lowered_frames += std::size_t(feet.stats.lowered_frames);
+  nlohmann::json entry = {{"clip", clip}, {"feet", std::move(legs)}};
+  if (feet.locked) entry["root_lowered_frames"] = feet.stats.lowered_frames;
+  by_clip.push_back(std::move(entry));
+}
+
+void FeetTally::write_to(nlohmann::json& summary) const {
+  if (!lock) {
+    summary["feet"] = {{"mode", "off"}};
+    return;
+  }
+  summary["feet"] = {{"mode", "lock"},
+                     {"clips", clips},
+                     {"contacts", contacts},
+                     {"locked_frames", locked_frames},
+                     {"root_lowered_frames", lowered_frames},
+                     {"by_clip", by_clip}};
+}
+
+std::string describe_feet(const nlohmann::json& summary) {
+  if (!summary.contains("feet") || summary["feet"]["mode"] != "lock") return "";
+  const auto& f = summary["feet"];
+  const std::size_t lowered = f["root_lowered_frames"].get<std::size_t>();
+  return fmt::format("  feet: {} contacts locked in {} clips ({} leg-frames){}\n",
+                     f["contacts"].get<std::size_t>(), f["clips"].get<std::size_t>(),
+                     f["locked_frames"].get<std::size_t>(),
+                     lowered ? fmt::format(", root lowered on {} frames", lowered) : "");
+}
+
+}  // namespace mocap::engine

@@ -1,0 +1,262 @@
+// Foot locking (kernels/foot_lock.hpp): on a synthetic walk whose planted foot slides, the
+// locked foot holds still, the rest of the body is untouched, and the blend adds no jump.
+#include "kernels/foot_lock.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "kernels/forward_kinematics.hpp"
+
+namespace mocap {
+namespace {
+
+// root (translated) -> spine -> head; root -> hip -> knee -> ankle -> toe, for each side.
+struct Walk {
+  static constexpr int kJoints = 11;
+  static constexpr int kRoot = 0, kSpine = 1, kHead = 2;
+  static constexpr int kLeftHip = 3, kLeftKnee = 4, kLeftAnkle = 5, kLeftToe = 6;
+  static constexpr int kRightHip = 7, kRightKnee = 8, kRightAnkle = 9, kRightToe = 10;
+  std::vector<int> parents{-1, 0, 1, 0, 3, 4, 5, 0, 7, 8, 9};
+  std::vector<Vec3> offsets{{0, 0, 0},     {0, 0.1, 0},   {0, 0.5, 0},      {0.1, 0, 0},
+                            {0, -0.45, 0}, {0, -0.45, 0}, {0, -0.05, 0.12}, {-0.1, 0, 0},
+                            {0, -0.45, 0}, {0, -0.45, 0}, {0, -0.05, 0.12}};
+  std::vector<std::uint8_t> translated{1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+  int frames;
+  double frame_time;
+  std::vector<float> rotations, translations;
+
+  // The body moves forward (z) at `speed` m/s while the legs swing in antiphase at 1 Hz about x,
+  // knees bent, the ankle under the hip at mid-stance. At the default speed each ankle stands still
+  // at the middle of its stance (left at t = 0, 1, 2 s; right at 0.5, 1.5 s: the hip's swing
+  // cancels the body's speed there) and slides slowly around it, as a filtered capture does; faster
+  // speeds make it slide more.
+  static constexpr double kPlantedSpeed =
+      0.45 * 0.3 * 2 * kPi * 2 * 0.9689124217106447;  // cos 0.25
+  Walk(int f, double ft, double speed = kPlantedSpeed) : frames(f), frame_time(ft) {
+    rotations.assign(std::size_t(frames) * kJoints * 4, 0.0f);
+    translations.assign(std::size_t(frames) * kJoints * 3, 0.0f);
+    for (int t = 0; t < frames; ++t) {
+      const double s = t * frame_time, w = 2 * kPi;
+      for (int j = 0; j < kJoints; ++j) {
+        store_quat(Quat{}, at_rotation(t, j));
+        store_vec3(offsets[std::size_t(j)], at_translation(t, j));
+      }
+      store_vec3({0.01 * std::sin(w * s), 0.84 + 0.01 * std::sin(2 * w * s), speed * s},
+                 at_translation(t, kRoot));
+      store_quat(exp(Vec3{0.05 * std::sin(w * s), 0.1 * std::sin(w * s), 0}),
+                 at_rotation(t, kSpine));
+      store_quat(exp(Vec3{0.3 * std::sin(w * s) - 0.25, 0, 0}), at_rotation(t, kLeftHip));
+      store_quat(exp(Vec3{0.35 + 0.15 * std::cos(w * s), 0, 0}), at_rotation(t, kLeftKnee));
+      store_quat(exp(Vec3{-0.2 * std::sin(w * s), 0, 0.05}), at_rotation(t, kLeftAnkle));
+      store_quat(exp(Vec3{-0.3 * std::sin(w * s) - 0.25, 0, 0}), at_rotation(t, kRightHip));
+      store_quat(exp(Vec3{0.35 - 0.15 * std::cos(w * s), 0, 0}), at_rotation(t, kRightKnee));
+      store_quat(exp(Vec3{0.2 * std::sin(w * s), 0, 0}), at_rotation(t, kRightAnkle));
+    }
+  }
+  float* at_rotation(int t, int j) { return &rotations[(std::size_t(t) * kJoints + j) * 4]; }
+  float* at_translation(int t, int j) { return &translations[(std::size_t(t) * kJoints + j) * 3]; }
+
+  std::vector<float> positions() const {
+    std::vector<float> out(std::size_t(frames) * kJoints * 3);
+    ForwardKinematicsJob fk;
+    fk.parents = parents;
+    fk.offsets = offsets;
+    fk.rotations = {rotations.data(), frames, kJoints};
+    fk.translations = {translations.data(), frames, kJoints};
+    fk.translated_joints = translated;
+    fk.positions = {out.data(), frames, kJoints};
+    EXPECT_TRUE(fk.run().ok());
+    return out;
+  }
+  // Global rotation of joint j at frame t.
+  Quat global_rotation(int t, int j) const {
+    Quat q = load_quat(&rotations[(std::size_t(t) * kJoints + j) * 4]);
+    for (int p = parents[std::size_t(j)]; p >= 0; p = parents[std::size_t(p)])
+      q = load_quat(&rotations[(std::size_t(t) * kJoints + p) * 4]) * q;
+    return q;
+  }
+};
+
+std::vector<FootChain> walk_legs() {
+  FootChain left{Walk::kLeftHip, Walk::kLeftKnee, Walk::kLeftAnkle, Walk::kLeftToe, 'L'};
+  FootChain right{Walk::kRightHip, Walk::kRightKnee, Walk::kRightAnkle, Walk::kRightToe, 'R'};
+  return {left, right};
+}
+
+FootLockStats lock(Walk& walk, const std::vector<std::vector<ContactInterval>>& contacts,
+                   FootLockParams params = {}) {
+  const std::vector<FootChain> legs = walk_legs();
+  FootLockStats stats;
+  FootLockJob job;
+  job.params = params;
+  job.parents = walk.parents;
+  job.offsets = walk.offsets;
+  job.translated_joints = walk.translated;
+  job.frame_time = walk.frame_time;
+  job.rotations = {walk.rotations.data(), walk.frames, Walk::kJoints};
+  job.translations = {walk.translations.data(), walk.frames, Walk::kJoints};
+  job.legs = legs;
+  job.contacts = contacts;
+  job.stats = &stats;
+  const Status s = job.run();
+  EXPECT_TRUE(s.ok()) << s.message();
+  return stats;
+}
+
+Vec3 point(const std::vector<float>& positions, int t, int j) {
+  return load_vec3(&positions[(std::size_t(t) * Walk::kJoints + j) * 3]);
+}
+double horizontal(Vec3 v) {
+  return std::hypot(v.x, v.z);
+}
+
+// The largest per-frame step of joint j over frames [begin, end).
+double largest_step(const std::vector<float>& positions, int j, int begin, int end) {
+  double largest = 0;
+  for (int t = begin + 1; t < end; ++t)
+    largest = std::max(largest, norm(point(positions, t, j) - point(positions, t - 1, j)));
+  return largest;
+}
+
+bool same_bits(const float* a, const float* b, int n) {
+  return std::equal(a, a + n, b);
+}
+
+TEST(FootLock, APlantedFootThatSlidesComesOutPinned) {
+  Walk walk(240, 1.0 / 120);
+  const std::vector<float> before = walk.positions();
+  const ContactInterval contact{108, 132};
+  // The synthetic foot does slide over its contact: the test would pass vacuously otherwise.
+  double slide = 0;
+  for (int t = contact.begin + 1; t < contact.end; ++t)
+    slide +=
+        horizontal(point(before, t, Walk::kLeftAnkle) - point(before, t - 1, Walk::kLeftAnkle));
+  ASSERT_GT(slide, 0.01);
+  const FootLockStats stats = lock(walk, {{contact}, {}});
+  EXPECT_EQ(stats.contacts, 1);
+  EXPECT_EQ(stats.locked_frames, 24);
+  EXPECT_EQ(stats.lowered_frames, 0);
+  const std::vector<float> after = walk.positions();
+  // Held in place horizontally; its height stays the filter's.
+  const Vec3 pin = point(after, contact.begin, Walk::kLeftAnkle);
+  for (int t = contact.begin; t < contact.end; ++t) {
+    EXPECT_LT(horizontal(point(after, t, Walk::kLeftAnkle) - pin), 1e-5) << "frame " << t;
+    EXPECT_NEAR(point(after, t, Walk::kLeftAnkle).y, point(before, t, Walk::kLeftAnkle).y, 1e-5)
+        << "frame " << t;
+  }
+  // The pin is the median of the filtered ankle over the contact.
+  std::vector<double> zs;
+  for (int t = contact.begin; t < contact.end; ++t)
+    zs.push_back(point(before, t, Walk::kLeftAnkle).z);
+  std::sort(zs.begin(), zs.end());
+  EXPECT_NEAR(pin.z, 0.5 * (zs[11] + zs[12]), 1e-5);
+  // The foot's global orientation is kept at every frame.
+  const Walk reference(240, 1.0 / 120);
+  for (int t = 0; t < walk.frames; ++t)
+    for (int j : {Walk::kLeftAnkle, Walk::kLeftToe})
+      EXPECT_LT(geodesic(walk.global_rotation(t, j), reference.global_rotation(t, j)), 1e-5)
+          << "frame " << t << " joint " << j;
+}
+
+TEST(FootLock, AFootWithoutContactsAndTheUpperBodyAreBitIdentical) {
+  Walk walk(360, 1.0 / 120);
+  const Walk original(360, 1.0 / 120);
+  lock(walk, {{{108, 132}, {228, 252}}, {}});
+  const int blend = 12;  // 0.1 s at 120 fps
+  for (int t = 0; t < walk.frames; ++t) {
+    for (int j = 0; j < Walk::kJoints; ++j) {
+      const bool left_leg = j == Walk::kLeftHip || j == Walk::kLeftKnee || j == Walk::kLeftAnkle;
+      const bool near_contact =
+          (t >= 108 - blend && t < 132 + blend) || (t >= 228 - blend && t < 252 + blend);
+      const bool same = same_bits(&walk.rotations[(std::size_t(t) * Walk::kJoints + j) * 4],
+                                  &original.rotations[(std::size_t(t) * Walk::kJoints + j) * 4], 4);
+      if (!left_leg || !near_contact) {
+        EXPECT_TRUE(same) << "frame " << t << " joint " << j;
+      }
+      if (left_leg && t >= 108 && t < 132 && j != Walk::kLeftAnkle) {
+        EXPECT_FALSE(same) << "the locked leg was not moved at frame " << t;
+      }
+    }
+  }
+  EXPECT_EQ(walk.translations, original.translations);  // reachable: the root stays
+}
+
+TEST(FootLock, NoContactsLeaveTheMotionBitIdentical) {
+  Walk walk(120, 1.0 / 120);
+  const Walk original(120, 1.0 / 120);
+  const FootLockStats stats = lock(walk, {{}, {}});
+  EXPECT_EQ(stats.contacts, 0);
+  EXPECT_EQ(walk.rotations, original.rotations);
+  EXPECT_EQ(walk.translations, original.translations);
+}
+
+TEST(FootLock, TheBlendAddsNoStepLargerThanTheInputs) {
+  for (const double frame_time : {1.0 / 120, 1.0 / 30}) {
+    // Stances of 0.2 s around the still frames, and one of 0.1 s at the clip's start.
+    const int f = int(std::lround(2.0 / frame_time)), s = int(std::lround(0.1 / frame_time));
+    Walk walk(f, frame_time);
+    const std::vector<float> before = walk.positions();
+    lock(walk, {{{0, s / 2}, {f / 2 - s, f / 2 + s}},
+                {{f / 4 - s, f / 4 + s}, {3 * f / 4 - s, 3 * f / 4 + s}}});
+    const std::vector<float> after = walk.positions();
+    for (int j : {Walk::kLeftAnkle, Walk::kRightAnkle, Walk::kLeftKnee, Walk::kRightKnee}) {
+      EXPECT_LE(largest_step(after, j, 0, f), largest_step(before, j, 0, f))
+          << "joint " << j << " at " << 1 / frame_time << " fps";
+    }
+  }
+}
+
+TEST(FootLock, AnUnreachablePinLowersTheRootAndTheFootStillHolds) {
+  // Fast enough that the hip runs 0.4 m past the pin: the leg cannot reach.
+  Walk walk(240, 1.0 / 120, 4.0);
+  const Walk original(240, 1.0 / 120, 4.0);
+  const ContactInterval contact{100, 140};
+  const FootLockStats stats = lock(walk, {{contact}, {}});
+  EXPECT_GT(stats.lowered_frames, 0);
+  EXPECT_GT(stats.max_drop, 0);
+  const std::vector<float> after = walk.positions();
+  const Vec3 pin = point(after, 120, Walk::kLeftAnkle);
+  for (int t = contact.begin; t < contact.end; ++t)
+    EXPECT_LT(horizontal(point(after, t, Walk::kLeftAnkle) - pin), 1e-4) << "frame " << t;
+  // Only the root's height changed among the translations, and only downwards.
+  for (int t = 0; t < walk.frames; ++t)
+    for (int j = 0; j < Walk::kJoints; ++j)
+      for (int c = 0; c < 3; ++c) {
+        const float a = walk.translations[(std::size_t(t) * Walk::kJoints + j) * 3 + c];
+        const float b = original.translations[(std::size_t(t) * Walk::kJoints + j) * 3 + c];
+        if (j == Walk::kRoot && c == 1) {
+          EXPECT_LE(a, b);
+        } else {
+          EXPECT_EQ(a, b) << "frame " << t << " joint " << j << " channel " << c;
+        }
+      }
+}
+
+TEST(FootLock, ValidateExplainsWhatIsWrong) {
+  Walk walk(10, 1.0 / 120);
+  std::vector<FootChain> legs = walk_legs();
+  legs[0].knee = Walk::kRightKnee;  // not the child of the left hip
+  const std::vector<std::vector<ContactInterval>> contacts{{}, {}};
+  FootLockJob job;
+  job.parents = walk.parents;
+  job.offsets = walk.offsets;
+  job.translated_joints = walk.translated;
+  job.rotations = {walk.rotations.data(), walk.frames, Walk::kJoints};
+  job.translations = {walk.translations.data(), walk.frames, Walk::kJoints};
+  job.legs = legs;
+  job.contacts = contacts;
+  EXPECT_NE(job.validate().message().find("hip -> knee -> ankle"), std::string::npos);
+  legs = walk_legs();
+  job.legs = legs;
+  const std::vector<std::vector<ContactInterval>> unordered{{{20, 30}, {5, 8}}, {}};
+  job.contacts = unordered;
+  EXPECT_NE(job.validate().message().find("ordered"), std::string::npos);
+  job.contacts = std::span<const std::vector<ContactInterval>>(contacts.data(), 1);
+  EXPECT_NE(job.validate().message().find("1 contact lists for 2 legs"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mocap
