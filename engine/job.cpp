@@ -100,7 +100,14 @@ RunSummary run_job(const Job& job) {
                     {}};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
-    if (feet.lock) state.feet = detect_feet(item.input);
+    if (feet.lock) {
+      state.feet = detect_feet(item.input);
+      io::ClipProvenance& p = item.input.provenance;
+      p.feet = settings.method != Method::none;
+      for (std::size_t leg = 0; leg < state.feet.legs.size(); ++leg)
+        for (const ContactInterval& c : state.feet.contacts[leg])
+          p.contacts.insert(p.contacts.end(), {state.feet.legs[leg].ankle, c.begin, c.end});
+    }
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
       item.output = std::move(item.input);

@@ -116,8 +116,8 @@ std::string describe_motion(const nlohmann::json& summary) {
       m["clips"].get<std::size_t>());
   const auto& worse = m["worse"];
   if (worse.empty()) return line + "; no clip got worse\n";
-  line += fmt::format("; {} clips worse (jitter > {}x or skating > {}x):", worse.size(),
-                      kJitterWorse, kSkatingWorse);
+  line += fmt::format("; {} {} worse (jitter > {}x or skating > {}x):", worse.size(),
+                      worse.size() == 1 ? "clip" : "clips", kJitterWorse, kSkatingWorse);
   std::size_t shown = 0;
   for (const auto& c : m["by_clip"]) {
     if (!c["worse"].get<bool>()) continue;

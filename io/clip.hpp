@@ -19,6 +19,8 @@ struct ClipProvenance {
   bool pop_stage = false;          // the pop stage looked for pops
   bool pops_repaired = false;      // ... and repaired them (else only counted)
   std::vector<std::int32_t> pops;  // [N][2]: frame, joint of each pop found
+  bool feet = false;               // foot contacts were looked for (and locked)
+  std::vector<std::int32_t> contacts;  // [N][3]: ankle joint, first frame, one past the last
 };
 
 struct Clip {

@@ -100,13 +100,20 @@ std::string write_encoded_motion(hid_t group, const char* name, const EncodedDat
 }
 
 // The clip's provenance (README, "The library file"): attributes method, parameters,
-// noise_sigma, and the dataset pops [N, 2] (frame, joint) with attribute repaired.
+// noise_sigma, the dataset pops [N, 2] (frame, joint) with attribute repaired, and the dataset
+// contacts [N, 3] (ankle joint, first frame, end frame) when feet were locked.
 std::string write_clip_provenance(hid_t group, const ClipProvenance& p) {
   if (p.method.empty()) return {};
   if (!h5::write_string_attribute(group, "method", p.method) ||
       !h5::write_string_attribute(group, "parameters", p.parameters_json) ||
       (p.noise_sigma >= 0 && !h5::write_double_attribute(group, "noise_sigma", p.noise_sigma)))
     return "cannot write its provenance attributes";
+  if (p.feet) {
+    const hsize_t cdims[2] = {hsize_t(p.contacts.size() / 3), 3};
+    if (!h5::write_dataset(group, "contacts", H5T_STD_I32LE, H5T_NATIVE_INT32, cdims,
+                           p.contacts.data()))
+      return "cannot write dataset 'contacts'";
+  }
   if (!p.pop_stage) return {};
   const hsize_t dims[2] = {hsize_t(p.pops.size() / 2), 2};
   if (!h5::write_dataset(group, "pops", H5T_STD_I32LE, H5T_NATIVE_INT32, dims, p.pops.data()))

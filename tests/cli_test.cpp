@@ -431,7 +431,8 @@ def visit(name, obj):
                      "noise_sigma": float(a["noise_sigma"]) if "noise_sigma" in a else None,
                      "pops": pops.tolist() if pops is not None else None,
                      "pops_shape": list(pops.shape) if pops is not None else None,
-                     "repaired": int(obj["pops"].attrs["repaired"]) if pops is not None else None})
+                     "repaired": int(obj["pops"].attrs["repaired"]) if pops is not None else None,
+                     "contacts_shape": list(obj["contacts"].shape) if "contacts" in obj else None})
 f.visititems(visit)
 print(json.dumps(rows))
 )";
@@ -446,7 +447,7 @@ print(json.dumps(rows))
   ASSERT_EQ(rows.size(), test::shared_bvh_files().size());
   std::map<std::string, nlohmann::json> automatic;
   for (const auto& c : summary["automatic"]["by_clip"]) automatic[c["clip"]] = c;
-  std::size_t pops = 0;
+  std::size_t pops = 0, contacts = 0;
   for (const auto& row : rows) {
     const std::string clip = row["clip"];
     ASSERT_TRUE(automatic.count(clip)) << clip;
@@ -463,8 +464,16 @@ print(json.dumps(rows))
       EXPECT_GE(p[1].get<int>(), 0);
     }
     pops += row["pops"].size();
+    // The feet locked by default with auto: their contacts, [N, 3].
+    ASSERT_FALSE(row["contacts_shape"].is_null()) << clip;
+    if (row["contacts_shape"][0].get<int>() > 0) {
+      EXPECT_EQ(row["contacts_shape"][1], 3) << clip;
+    }
+    contacts += row["contacts_shape"][0].get<std::size_t>();
   }
   EXPECT_EQ(pops, summary["pops"]["samples"].get<std::size_t>()) << "every pop, once";
+  EXPECT_EQ(contacts, summary["feet"]["contacts"].get<std::size_t>()) << "every contact, once";
+  EXPECT_GT(contacts, 0u);
 }
 
 TEST(Cli, AnglesTakeDegreesImplausibleValuesWarnAndMethodNamesIgnoreCase) {
