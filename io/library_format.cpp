@@ -124,6 +124,10 @@ std::string check_clip(const Clip& clip) {
   return {};
 }
 
+void skip_hdf5_cleanup_at_exit() {
+  H5dont_atexit();
+}
+
 void silence_hdf5_errors() {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
 }

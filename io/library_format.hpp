@@ -67,6 +67,12 @@ std::string check_clip(const Clip& clip);
 // also silences HDF5 while inside its own calls, so this is for the rest of the program).
 void silence_hdf5_errors();
 
+// Call first in main(), before any other HDF5 call: keeps HDF5 from closing, at exit, files whose
+// close already failed. HDF5 1.10 crashes there (H5F__close_cb from H5_term_library) after a
+// write failed on a full disk; every file the store opens is closed, and its errors checked,
+// before the program ends, so nothing is left for that clean-up to do.
+void skip_hdf5_cleanup_at_exit();
+
 // The current time as UTC ISO 8601 with seconds, e.g. "2024-05-01T12:00:00Z".
 std::string utc_now_iso8601();
 
