@@ -11,6 +11,7 @@ packages=(
   libcli11-dev libfmt-dev nlohmann-json3-dev
   hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py python3-numpy
   libopenmpi-dev openmpi-bin
+  clang  # the libFuzzer targets in fuzz/ (-DMOCAP_FUZZ=ON with CXX=clang++)
 )
 missing=()
 for p in "${packages[@]}"; do
