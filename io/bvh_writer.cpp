@@ -8,6 +8,7 @@
 #include <system_error>
 #include <vector>
 
+#include "io/library_format.hpp"
 #include "kernels/euler.hpp"
 
 namespace mocap::io {
@@ -164,8 +165,8 @@ std::string check_clip_for_bvh(const Clip& clip) {
   if (!clip.skeleton) return "the clip has no skeleton";
   const Skeleton& skeleton = *clip.skeleton;
   if (std::string problem = check_structure(skeleton); !problem.empty()) return problem;
-  if (!(clip.frame_time > 0) || !std::isfinite(clip.frame_time))
-    return "the frame time must be a positive number of seconds, got " +
+  if (!valid_frame_time(clip.frame_time))
+    return "the frame time must be a positive number of seconds " + frame_time_range() + ", got " +
            std::to_string(clip.frame_time);
   if (clip.frames < 0) return "the frame count is negative";
   const std::size_t samples = std::size_t(clip.frames) * std::size_t(skeleton.joint_count());

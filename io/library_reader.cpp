@@ -101,8 +101,8 @@ ClipHeader read_header(const State& state, hid_t clip, const std::string& path) 
     return fail("it has no valid 'skeleton' attribute (the name of a group in /skeletons)");
   header.skeleton = *skeleton;
   const auto frame_time = h5::read_double_attribute(clip, "frame_time");
-  if (!frame_time || !(*frame_time > 0) || !std::isfinite(*frame_time))
-    return fail("it has no finite 'frame_time' attribute > 0");
+  if (!frame_time || !valid_frame_time(*frame_time))
+    return fail("it has no 'frame_time' attribute " + frame_time_range());
   header.frame_time = *frame_time;
   header.source = h5::read_string_attribute(clip, "source").value_or("");
   std::string problem;

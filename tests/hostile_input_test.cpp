@@ -255,6 +255,14 @@ TEST_F(HostileLibrary, InfiniteFrameTime) {
   expect_filter_fails("frame_time");
 }
 
+// A fuzz finding (fuzz/library_reader_fuzz): a frame time of 1e300 s was valid in a library, and
+// export wrote "Frame Time: 1e+300", which import refuses.
+TEST_F(HostileLibrary, FrameTimeOutsideWhatBvhHolds) {
+  Editor(lib()).set_double_attribute("/clips/a/victim", "frame_time", 1e300);
+  expect_check_fails("frame_time");
+  expect_export_fails("frame_time");
+}
+
 TEST_F(HostileLibrary, SkeletonsDeleted) {
   Editor(lib()).remove("/skeletons");
   const auto r = test::run_cli("info --check " + quoted(lib()));
