@@ -98,7 +98,8 @@ void put_strings(hid_t file, const std::string& path, const std::vector<std::str
 }
 
 // A dataset of `dims`; with `chunked` stored in chunks of up to 4 along the first axis; written
-// in full from `values` (repeated) unless `sparse`, which leaves it unstored but for one element.
+// in full from `values` (repeated) when small and not `sparse`; else, when chunked, one element
+// (one chunk) stored; else nothing stored.
 void put_numbers(hid_t file, const std::string& path, hid_t file_type, hid_t memory_type,
                  std::vector<hsize_t> dims, const std::vector<double>& values, bool chunked,
                  bool sparse) {
@@ -120,7 +121,8 @@ void put_numbers(hid_t file, const std::string& path, hid_t file_type, hid_t mem
     std::vector<double> data(count);
     for (hsize_t i = 0; i < count; ++i) data[i] = values.empty() ? 0.0 : values[i % values.size()];
     H5Dwrite(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data());
-  } else if (d >= 0 && count > 0) {
+  } else if (d >= 0 && count > 0 && chunked) {
+    // One chunk stored of a huge shape (a contiguous one would be allocated whole: gigabytes).
     const double one = 1.0;
     std::vector<hsize_t> start(dims.size(), 0), single(dims.size(), 1);
     const hid_t memory = H5Screate_simple(1, single.data(), nullptr);
