@@ -196,6 +196,9 @@ int run_cli(int argc, char** argv) {
   info_cmd->add_flag("--joints", info.joints,
                      "read every clip and name its garbage joints: constant, moving only by "
                      "float rounding, or flipping by ~pi (uncaptured)");
+  info_cmd->add_flag("--check", info.check,
+                     "read and validate every clip as filter and export do; exit 1 naming each "
+                     "clip that fails");
   info_cmd->add_flag("--json", info.json, "machine-readable output on stdout");
   info_cmd->footer(
       examples({"mocap-clean info clean.h5 --clips", "mocap-clean info lib.h5 --joints --json",

@@ -34,7 +34,7 @@ bool BvhFolderSink::write(const std::string&, const std::string& relative, std::
 }
 
 bool LibrarySink::prepare(const io::Clip& clip, std::any& prepared, std::string* error) {
-  auto encoded = io::encode_clip(clip, compression, error);
+  auto encoded = io::encode_clip(clip, compression, error, checksum);
   if (!encoded) return false;
   prepared = std::move(*encoded);
   return true;

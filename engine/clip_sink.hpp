@@ -42,6 +42,7 @@ class LibrarySink final : public ClipSink {
              std::string* error) override;
   PartedOutput& output() { return *output_; }
   io::Compression compression = io::Compression::lz4;
+  bool checksum = true;
 
  private:
   std::unique_ptr<PartedOutput> output_;

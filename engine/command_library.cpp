@@ -14,6 +14,7 @@
 #include "engine/job.hpp"
 #include "engine/shard_plan.hpp"
 #include "engine/version.hpp"
+#include "io/clip_validation.hpp"
 #include "io/compression.hpp"
 #include "io/library_join.hpp"
 #include "io/library_reader.hpp"
@@ -46,6 +47,7 @@ std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, const S
   PartedOutputOptions options;
   options.output = out.path;
   options.compression = *compression;
+  options.checksum = out.checksum;
   options.resume = out.resume;
   options.clips_per_part = out.clips_per_part;
   options.provenance = provenance;
@@ -57,6 +59,7 @@ std::unique_ptr<LibrarySink> open_library_sink(const LibraryOutput& out, const S
   if (!parted) return nullptr;
   auto sink = std::make_unique<LibrarySink>(std::move(parted));
   sink->compression = *compression;
+  sink->checksum = out.checksum;
   return sink;
 }
 
@@ -104,6 +107,7 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, cons
   summary.extra["output"] = out.path;
   summary.extra["resumed_clips"] = skipped;
   summary.extra["compression"] = out.compression;
+  summary.extra["checksum"] = out.checksum;
   if (shard.active()) summary.extra["shard"] = fmt::format("{}/{}", shard.index, shard.count);
   std::string error;
   bool joined = false;
@@ -131,11 +135,19 @@ int run_into_library(Job& job, LibrarySink& sink, const LibraryOutput& out, cons
                  shard.index, shard.count, out.path);
     }
   } else if (!sink.output().finish(provenance, &error)) {
+    // Clips were processed and the committed ones are safe in OUT.parts: a failed join (a full
+    // disk) is a failure of this run, exit 1, not a run that could not start.
     summary.failed.push_back({out.path, error});
-    report(summary, job.run.json);
-    return 2;
   } else {
     joined = true;
+  }
+  // Clips whose part could not be written after they were counted (a full disk).
+  for (auto& lost : sink.output().take_lost()) {
+    summary.failed.push_back({lost.clip_path, lost.error});
+    summary.clips -= std::min(summary.clips, std::size_t(1));
+    summary.frames -= std::min(summary.frames, lost.frames);
+    summary.joints -= std::min(summary.joints, lost.joints);
+    summary.joint_frames -= std::min(summary.joint_frames, lost.frames * lost.joints);
   }
   summary.extra["joined"] = joined;
   // The whole command, joining the parts included.
@@ -201,6 +213,8 @@ void LibraryOutput::add_to(CLI::App& cmd) {
       ->check(CLI::IsMember({"none", "lz4", "deflate"}))
       ->capture_default_str();
   cmd.add_flag("--resume", resume, "complete an interrupted run: keep the clips it finished");
+  cmd.add_flag("--checksum,!--no-checksum", checksum,
+               "HDF5 Fletcher-32 checksum on every chunk, verified on every read (default: on)");
   cmd.add_option(
          "--shard", shard,
          "I/N: process only the I-th of N cost-balanced shards (job arrays); the last shard "
@@ -422,6 +436,20 @@ int run_info(const InfoCommand& command) {
     }
     j["garbage_joints"] = {{"joints", tally.garbage_joints}, {"by_clip", tally.garbage}};
   }
+  if (command.check) {
+    // Every clip through the validation filter and export apply (skeleton, shapes, storage,
+    // values), so info vouches for exactly what they accept.
+    for (std::size_t i = 0; i < source->count(); ++i) {
+      if (!reader.clips()[i].error.empty()) continue;  // already listed as unreadable
+      std::optional<io::Clip> clip = source->read(i, &error);
+      std::string problem = clip ? io::validate_clip(*clip) : error;
+      if (clip && !problem.empty())
+        problem = fmt::format("{}: clip '{}': {}", command.input, source->clip_path(i), problem);
+      if (!problem.empty())
+        unreadable.push_back({{"clip", source->clip_path(i)}, {"error", problem}});
+    }
+    j["checked"] = source->count();
+  }
   j["unreadable"] = unreadable;
   if (command.list_clips) j["clip_list"] = clips;
   if (command.json) {
@@ -458,6 +486,9 @@ int run_info(const InfoCommand& command) {
   for (const auto& u : unreadable)
     fmt::print(stderr, "mocap-clean: info: {}: {}\n", u["clip"].get<std::string>(),
                u["error"].get<std::string>());
+  if (command.check)
+    fmt::print("  check: {} of {} clips valid\n", source->count() - unreadable.size(),
+               source->count());
   return unreadable.empty() ? 0 : 1;
 }
 

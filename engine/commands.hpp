@@ -37,6 +37,7 @@ struct LibraryOutput {
   std::string path;
   std::string compression = "lz4";
   bool resume = false;
+  bool checksum = true;  // --checksum / --no-checksum: Fletcher-32 on every chunk
   int clips_per_part = 256;
   std::string shard = "0/1";  // --shard I/N
   void add_to(CLI::App& command);
@@ -85,6 +86,7 @@ struct InfoCommand {
   bool json = false;
   bool list_clips = false;
   bool joints = false;  // --joints: read every clip and name its garbage joints
+  bool check = false;   // --check: read and validate every clip (io/clip_validation.hpp)
 };
 int run_info(const InfoCommand& command);
 // info on one BVH file (run_info hands over when the file's name ends in .bvh).

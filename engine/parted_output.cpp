@@ -103,16 +103,31 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
   if (!current_) {
     current_path_ = parts_dir() / fmt::format("part-{}-{:06d}.h5", options_.tag, next_part_++);
     const fs::path tmp = current_path_.string() + ".tmp";
-    current_ = io::LibraryWriter::create(tmp, options_.compression, error);
-    if (!current_) return false;
-    if (!options_.provenance.method.empty() &&
-        !current_->write_provenance(options_.provenance, error))
+    current_ = io::LibraryWriter::create(tmp, options_.compression, error, options_.checksum);
+    if (!current_) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
       return false;
+    }
     clips_in_current_ = 0;
     opened_at_ = std::chrono::steady_clock::now();
+    if (!options_.provenance.method.empty() &&
+        !current_->write_provenance(options_.provenance, error)) {
+      abandon_part(*error);
+      return false;
+    }
   }
-  if (!current_->write_encoded(clip_path, clip, error)) return false;
+  if (!current_->write_encoded(clip_path, clip, error)) {
+    // A write that failed half-way (ENOSPC) leaves HDF5's view of the file in doubt: the part
+    // is dropped whole rather than closed with unknown contents.
+    abandon_part(*error);
+    return false;
+  }
   done_.insert(clip_path);
+  in_current_.push_back({clip_path,
+                         {},
+                         std::size_t(clip.frames),
+                         std::size_t(clip.skeleton ? clip.skeleton->joint_count() : 0)});
   ++clips_in_current_;
   const double age =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - opened_at_).count();
@@ -121,16 +136,49 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
   return true;
 }
 
+void PartedOutput::abandon_part(const std::string& why) {
+  if (current_) {
+    const fs::path tmp = current_->path();
+    std::string ignored;
+    current_->close(&ignored);  // may fail as well: the file goes either way
+    current_.reset();
+    std::error_code ec;
+    fs::remove(tmp, ec);
+  }
+  for (LostClip& clip : in_current_) {
+    done_.erase(clip.clip_path);
+    clip.error = "its part " + current_path_.filename().string() + " could not be written (" + why +
+                 "); run again with --resume to redo it";
+    lost_.push_back(std::move(clip));
+  }
+  in_current_.clear();
+}
+
 bool PartedOutput::commit(std::string* error) {
   if (!current_) return true;
   const fs::path tmp = current_->path();
-  const bool closed = current_->close(error);
-  current_.reset();
-  if (!closed) return false;
+  std::string problem;
+  const bool closed = current_->close(&problem);
   std::error_code ec;
-  fs::rename(tmp, current_path_, ec);
-  if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
-  return !options_.keep_master_current || options_.shared_parts || refresh_master(error);
+  if (closed) fs::rename(tmp, current_path_, ec);
+  if (!closed || ec) {
+    if (closed) problem = fmt::format("cannot rename {}: {}", tmp.string(), ec.message());
+    abandon_part(problem);
+    return fail(error, problem);
+  }
+  current_.reset();
+  in_current_.clear();
+  if (!options_.keep_master_current || options_.shared_parts) return true;
+  // The part is safe; OUT lagging behind costs nothing the join or --resume does not restore, so
+  // a failure here (a full disk) is a warning, not a lost clip.
+  if (std::string warning; !refresh_master(&warning)) {
+    master_current_ = false;
+    fmt::print(stderr,
+               "mocap-clean: warning: {}; {} lists the clips of earlier parts only until the "
+               "join\n",
+               warning, options_.output.string());
+  }
+  return true;
 }
 
 bool PartedOutput::refresh_master(std::string* error) {
@@ -145,9 +193,13 @@ bool PartedOutput::refresh_master(std::string* error) {
   } else {
     built = io::link_libraries(committed_parts(), tmp, error);
   }
-  if (!built) return false;
-  fs::rename(tmp, options_.output, ec);
-  if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  if (built) fs::rename(tmp, options_.output, ec);
+  if (!built || ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    return built ? fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()))
+                 : false;
+  }
   master_current_ = true;
   return true;
 }
@@ -205,10 +257,20 @@ bool PartedOutput::join_if_all_finished(int count, const io::Provenance& provena
 
 bool PartedOutput::join(const io::Provenance& provenance, std::string* error) {
   const fs::path tmp = options_.output.string() + ".tmp";
-  if (!io::join_libraries(committed_parts(), tmp, provenance, error)) return false;
   std::error_code ec;
-  fs::rename(tmp, options_.output, ec);
-  if (ec) return fail(error, fmt::format("cannot rename {}: {}", tmp.string(), ec.message()));
+  std::string problem;
+  bool joined = io::join_libraries(committed_parts(), tmp, provenance, &problem);
+  if (joined) {
+    fs::rename(tmp, options_.output, ec);
+    if (ec) problem = fmt::format("cannot rename {}: {}", tmp.string(), ec.message());
+    joined = !ec;
+  }
+  if (!joined) {
+    fs::remove(tmp, ec);
+    return fail(error, fmt::format("{}; the clips are safe in {}: free space if the disk is full, "
+                                   "then run the same command with --resume to join them",
+                                   problem, parts_dir().string()));
+  }
   // The finished markers go first, so that no shard that comes late joins again.
   for (const auto& entry : fs::directory_iterator(parts_dir(), ec))
     if (entry.path().filename().string().starts_with("finished-")) fs::remove(entry.path(), ec);

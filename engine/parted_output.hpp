@@ -10,6 +10,7 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/clip_encoder.hpp"
@@ -22,6 +23,7 @@ namespace mocap::engine {
 struct PartedOutputOptions {
   std::filesystem::path output;
   io::Compression compression = io::Compression::lz4;
+  bool checksum = true;  // Fletcher-32 on every chunk
   bool resume = false;
   std::string tag = "p";  // distinguishes writers sharing OUT.parts (ranks, shards)
   int clips_per_part = 256;
@@ -42,8 +44,17 @@ class PartedOutput {
   // Clips held by committed parts (what --resume skips).
   const std::set<std::string>& done() const { return done_; }
 
+  // A failed write (a full disk) abandons the open part: its file is removed and the clips it
+  // held so far become lost() (they are not done(), so --resume redoes them).
   bool add(const std::string& clip_path, const io::EncodedClip& clip, std::string* error);
-  bool commit(std::string* error);  // closes the open part and renames it into place
+  // Closes the open part and renames it into place; on failure the part is abandoned as above.
+  bool commit(std::string* error);
+  // Clips accepted by add() whose part could not be written after all, with the reason.
+  struct LostClip {
+    std::string clip_path, error;
+    std::size_t frames = 0, joints = 0;
+  };
+  std::vector<LostClip> take_lost() { return std::exchange(lost_, {}); }
   // Commits, joins every committed part into OUT (through OUT.tmp and a rename) and removes
   // OUT.parts.
   bool finish(const io::Provenance& provenance, std::string* error);
@@ -63,10 +74,12 @@ class PartedOutput {
  private:
   explicit PartedOutput(PartedOutputOptions options) : options_(std::move(options)) {}
   bool refresh_master(std::string* error);
+  void abandon_part(const std::string& why);
   bool all_finished(int count) const;
 
   PartedOutputOptions options_;
   std::set<std::string> done_;
+  std::vector<LostClip> in_current_, lost_;  // clips of the open part; of abandoned parts
   std::unique_ptr<io::LibraryWriter> current_;
   std::filesystem::path current_path_;
   int clips_in_current_ = 0;

@@ -1,6 +1,7 @@
 #include "io/bvh_hierarchy.hpp"
 
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "io/bvh_reader.hpp"
@@ -82,7 +83,12 @@ class HierarchyParser {
       fail(keyword.line, std::string(keyword.text) + " needs a name on the same line");
     if (skeleton_.joint_count() >= kMaxBvhJoints)
       fail(keyword.line, "more than " + std::to_string(kMaxBvhJoints) + " joints");
+    if (std::string why = check_joint_name(name); !why.empty())
+      fail(keyword.line, std::string(keyword.text) + " " + printable(name) + ": " + why);
     const int joint = skeleton_.joint_count();
+    if (const auto [it, fresh] = name_lines_.emplace(std::string(name), keyword.line); !fresh)
+      fail(keyword.line, "joint name " + printable(name) + " is used already on line " +
+                             std::to_string(it->second) + "; joint names must be unique");
     skeleton_.joint_names.emplace_back(name);
     skeleton_.parents.push_back(parent);
     skeleton_.offsets.emplace_back();
@@ -197,6 +203,7 @@ class HierarchyParser {
   Cursor& cursor_;
   Skeleton skeleton_;
   std::vector<OpenBlock> stack_;
+  std::unordered_map<std::string, int> name_lines_;  // joint name -> line it was declared on
 };
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <limits>
 
 namespace mocap::io::bvh {
 
@@ -84,6 +85,9 @@ NumberResult parse_number(std::string_view token) {
   if (ec == std::errc::result_out_of_range) return {0, "is out of range"};
   if (ec != std::errc() || ptr != last) return {0, "is not a number"};
   if (!std::isfinite(value)) return {0, "is not a finite number"};
+  // Values end up as float32 (translations, the store): beyond its range they would be infinite.
+  if (std::abs(value) > double(std::numeric_limits<float>::max()))
+    return {0, "is out of range (beyond the +-3.4e38 of a 32-bit float)"};
   return {value, nullptr};
 }
 

@@ -10,6 +10,7 @@
 
 #include "io/bvh_hierarchy.hpp"
 #include "io/bvh_lexer.hpp"
+#include "io/library_format.hpp"
 #include "kernels/euler.hpp"
 
 namespace mocap::io {
@@ -99,9 +100,9 @@ MotionHeader parse_motion_header(Cursor& cursor, int hierarchy_end_line) {
   std::string_view time_text = time.text.substr(5);
   if (time_text.empty()) time_text = cursor.token_on_line().text;
   const bvh::NumberResult seconds = bvh::parse_number(time_text);
-  if (seconds.error || seconds.value <= 0)
-    fail(frame.line,
-         "the frame time " + quoted(time_text) + " is not a positive number of seconds");
+  if (seconds.error || !valid_frame_time(seconds.value))
+    fail(frame.line, "the frame time " + quoted(time_text) +
+                         " is not a positive number of seconds " + frame_time_range());
   header.frame_time = seconds.value;
   if (!cursor.at_line_end())
     fail(cursor.line(), "unexpected " + quoted(cursor.token_on_line().text) + " after Frame Time");

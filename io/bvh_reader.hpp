@@ -17,13 +17,14 @@
 #include <string_view>
 
 #include "io/clip.hpp"
+#include "io/clip_validation.hpp"
 
 namespace mocap::io {
 
 // More joints than this is refused (CMU skeletons have 31; the largest rigs a few hundred).
 inline constexpr int kMaxBvhJoints = 100000;
 // A clip larger than this many joint-frames is refused (about 2.8 GB of tensors).
-inline constexpr std::int64_t kMaxBvhJointFrames = 100'000'000;
+inline constexpr std::int64_t kMaxBvhJointFrames = kMaxClipJointFrames;
 
 struct BvhError {
   std::string file;

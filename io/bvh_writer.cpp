@@ -8,6 +8,7 @@
 #include <system_error>
 #include <vector>
 
+#include "io/library_format.hpp"
 #include "kernels/euler.hpp"
 
 namespace mocap::io {
@@ -163,13 +164,6 @@ void append_frames(std::string& out, const Clip& clip) {
   }
 }
 
-bool breaks_syntax(const std::string& name) {
-  if (name.empty()) return true;
-  for (char c : name)
-    if (c == '\n' || c == '\r' || c == '{' || c == '}') return true;
-  return name.front() == ' ' || name.front() == '\t' || name.back() == ' ' || name.back() == '\t';
-}
-
 bool all_finite(const std::vector<float>& values) {
   for (float v : values)
     if (!std::isfinite(v)) return false;
@@ -182,15 +176,8 @@ std::string check_clip_for_bvh(const Clip& clip) {
   if (!clip.skeleton) return "the clip has no skeleton";
   const Skeleton& skeleton = *clip.skeleton;
   if (std::string problem = check_structure(skeleton); !problem.empty()) return problem;
-  for (int j = 1; j < skeleton.joint_count(); ++j)
-    if (skeleton.parents[std::size_t(j)] < 0)
-      return "joint '" + skeleton.joint_names[std::size_t(j)] +
-             "' is a second root; a BVH file is written with one ROOT";
-  for (const std::string& name : skeleton.joint_names)
-    if (breaks_syntax(name))
-      return "joint name '" + name + "' is empty, has a line break or brace, or outer blanks";
-  if (!(clip.frame_time > 0) || !std::isfinite(clip.frame_time))
-    return "the frame time must be a positive number of seconds, got " +
+  if (!valid_frame_time(clip.frame_time))
+    return "the frame time must be a positive number of seconds " + frame_time_range() + ", got " +
            std::to_string(clip.frame_time);
   if (clip.frames < 0) return "the frame count is negative";
   const std::size_t samples = std::size_t(clip.frames) * std::size_t(skeleton.joint_count());
@@ -199,6 +186,10 @@ std::string check_clip_for_bvh(const Clip& clip) {
            std::to_string(skeleton.joint_count()) + " joints";
   if (!all_finite(clip.rotations) || !all_finite(clip.translations))
     return "the clip holds non-finite values";
+  // A BVH file stores motion only through channels: frame lines of no values are unreadable.
+  if (clip.frames > 0 && skeleton.channel_count() == 0)
+    return "the skeleton has no channels, so its " + std::to_string(clip.frames) +
+           " frames cannot be written";
   return {};
 }
 

@@ -15,8 +15,8 @@
 namespace mocap::io {
 
 // What keeps the clip from being written as BVH (empty when it can be): a skeleton that fails
-// check_structure, more than one root, names that would break the syntax, tensors of the wrong
-// size, a frame time that is not positive, non-finite values.
+// check_structure (one root, names BVH can carry, finite offsets), tensors of the wrong size, a
+// frame time that is not positive, non-finite values, frames without any channel to hold them.
 std::string check_clip_for_bvh(const Clip& clip);
 
 // The BVH text of a clip that passes check_clip_for_bvh.

@@ -103,8 +103,37 @@ bool deflate_encode(std::span<const std::uint8_t> in, int level, std::vector<std
   return true;
 }
 
-bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression,
-                  std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch) {
+std::uint32_t fletcher32(std::span<const std::uint8_t> bytes) {
+  const std::uint8_t* data = bytes.data();
+  std::size_t words = bytes.size() / 2;
+  std::uint32_t sum1 = 0, sum2 = 0;
+  while (words > 0) {
+    // 360 words keep both sums below 2^32 before folding, as HDF5 does.
+    std::size_t block = std::min<std::size_t>(words, 360);
+    words -= block;
+    do {
+      sum1 += std::uint32_t(data[0]) << 8 | std::uint32_t(data[1]);
+      data += 2;
+      sum2 += sum1;
+    } while (--block);
+    sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+    sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+  }
+  if (bytes.size() % 2) {
+    sum1 += std::uint32_t(*data) << 8;
+    sum2 += sum1;
+    sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+    sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+  }
+  sum1 = (sum1 & 0xffff) + (sum1 >> 16);
+  sum2 = (sum2 & 0xffff) + (sum2 >> 16);
+  return sum2 << 16 | sum1;
+}
+
+namespace {
+
+bool encode_filters(std::span<const std::uint8_t> raw, Compression compression,
+                    std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch) {
   if (compression == Compression::none) {
     out.insert(out.end(), raw.begin(), raw.end());
     return true;
@@ -113,6 +142,19 @@ bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression,
   shuffle_bytes(raw, sizeof(float), scratch);
   if (compression == Compression::lz4) return lz4_filter_encode(scratch, out);
   return deflate_encode(scratch, kDeflateLevel, out);
+}
+
+}  // namespace
+
+bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression, bool checksum,
+                  std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch) {
+  const std::size_t begin = out.size();
+  if (!encode_filters(raw, compression, out, scratch)) return false;
+  if (checksum) {
+    const std::uint32_t sum = fletcher32({out.data() + begin, out.size() - begin});
+    for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(sum >> (8 * i)));
+  }
+  return true;
 }
 
 }  // namespace mocap::io

@@ -27,9 +27,15 @@ bool lz4_filter_decode(std::span<const std::uint8_t> in, std::vector<std::uint8_
 // zlib's compress2 at `level`, as HDF5's deflate filter calls it. Appends to `out`.
 bool deflate_encode(std::span<const std::uint8_t> in, int level, std::vector<std::uint8_t>& out);
 
-// One raw chunk of float32 elements through the filter pipeline of `compression`; appends the
-// stored bytes to `out`. `scratch` is reused between calls to avoid allocations.
-bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression,
+// HDF5's Fletcher-32 (H5_checksum_fletcher32, the H5Z_FILTER_FLETCHER32 filter): sums of
+// big-endian 16-bit words, an odd last byte as the high half of one, folded to 16 bits every
+// 360 words; sum2 << 16 | sum1.
+std::uint32_t fletcher32(std::span<const std::uint8_t> bytes);
+
+// One raw chunk of float32 elements through the filter pipeline of `compression`, then, with
+// `checksum`, the Fletcher-32 filter (the checksum of the stored bytes appended little-endian);
+// appends the stored bytes to `out`. `scratch` is reused between calls to avoid allocations.
+bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression, bool checksum,
                   std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch);
 
 }  // namespace mocap::io

@@ -16,7 +16,7 @@ static_assert(std::endian::native == std::endian::little,
 namespace {
 
 bool encode_dataset(const std::vector<float>& values, int frames, int joints, int channels,
-                    Compression compression, EncodedDataset& out) {
+                    Compression compression, bool checksum, EncodedDataset& out) {
   out.frames = frames;
   out.joints = joints;
   out.channels = channels;
@@ -42,7 +42,7 @@ bool encode_dataset(const std::vector<float>& values, int frames, int joints, in
     }
     const std::span<const std::uint8_t> raw(reinterpret_cast<const std::uint8_t*>(chunk),
                                             chunk_floats * sizeof(float));
-    if (!encode_chunk(raw, compression, out.bytes, scratch)) return false;
+    if (!encode_chunk(raw, compression, checksum, out.bytes, scratch)) return false;
     out.chunk_ends.push_back(out.bytes.size());
   }
   return true;
@@ -51,20 +51,22 @@ bool encode_dataset(const std::vector<float>& values, int frames, int joints, in
 }  // namespace
 
 std::optional<EncodedClip> encode_clip(const Clip& clip, Compression compression,
-                                       std::string* error) {
+                                       std::string* error, bool checksum) {
   if (std::string problem = check_clip(clip); !problem.empty()) {
     if (error) *error = problem;
     return std::nullopt;
   }
   EncodedClip out;
   out.compression = compression;
+  out.checksum = checksum;
   out.skeleton = clip.skeleton;
   out.frame_time = clip.frame_time;
   out.frames = clip.frames;
   out.source = clip.source;
   out.provenance = clip.provenance;
-  if (!encode_dataset(clip.rotations, clip.frames, clip.joints(), 4, compression, out.rotations) ||
-      !encode_dataset(clip.translations, clip.frames, clip.joints(), 3, compression,
+  if (!encode_dataset(clip.rotations, clip.frames, clip.joints(), 4, compression, checksum,
+                      out.rotations) ||
+      !encode_dataset(clip.translations, clip.frames, clip.joints(), 3, compression, checksum,
                       out.translations)) {
     if (error) *error = std::string(to_string(compression)) + " compression of a chunk failed";
     return std::nullopt;

@@ -31,6 +31,7 @@ struct EncodedDataset {
 
 struct EncodedClip {
   Compression compression = Compression::none;
+  bool checksum = true;  // each chunk ends with its Fletcher-32 checksum
   std::shared_ptr<const Skeleton> skeleton;
   double frame_time = 0;
   int frames = 0;
@@ -44,6 +45,6 @@ struct EncodedClip {
 // Pure CPU and thread-safe (no HDF5 call): run it on any thread. Nullopt, with the reason in
 // *error, when check_clip() rejects the clip or a compressor fails.
 std::optional<EncodedClip> encode_clip(const Clip& clip, Compression compression,
-                                       std::string* error);
+                                       std::string* error, bool checksum = true);
 
 }  // namespace mocap::io

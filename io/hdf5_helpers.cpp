@@ -23,6 +23,16 @@ std::string last_error_detail() {
   };
   H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, keep_first, &detail);
   H5Eclear2(H5E_DEFAULT);
+  // The file drivers' "file write failed: time = ..., errno = 28, error message = 'No space left
+  // on device', buf = 0x..., ..." becomes "file write failed: No space left on device".
+  const std::string marker = "error message = '";
+  if (const auto at = detail.find(marker); at != std::string::npos) {
+    const auto end = detail.find('\'', at + marker.size());
+    const auto colon = detail.find(':');
+    if (end != std::string::npos && colon < at)
+      detail = detail.substr(0, colon) + ": " +
+               detail.substr(at + marker.size(), end - at - marker.size());
+  }
   return detail;
 }
 
@@ -196,6 +206,49 @@ std::optional<std::vector<hsize_t>> dataset_dims(hid_t dataset) {
   return dims;
 }
 
+std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
+  hsize_t elements = 1;
+  for (hsize_t d : dims) elements *= d;
+  if (elements == 0) return {};
+  const PropertyList properties(H5Dget_create_plist(dataset));
+  if (!properties) return with_detail("cannot read its creation properties");
+  if (H5Pget_external_count(properties.get()) != 0) return "its data lives in external files";
+  switch (H5Pget_layout(properties.get())) {
+    case H5D_COMPACT:  // held in the object header itself, under 64 KiB
+      return {};
+    case H5D_CONTIGUOUS: {
+      const Datatype type(H5Dget_type(dataset));
+      const std::size_t size = type ? H5Tget_size(type.get()) : 0;
+      const hsize_t stored = H5Dget_storage_size(dataset);
+      if (size == 0 || stored < elements * size)
+        return "the file stores " + std::to_string(stored) + " of its " +
+               std::to_string(elements * size) + " bytes";
+      return {};
+    }
+    case H5D_CHUNKED: {
+      const int rank = int(dims.size());
+      std::vector<hsize_t> chunk(dims.size());
+      if (H5Pget_chunk(properties.get(), rank, chunk.data()) != rank)
+        return with_detail("cannot read its chunk shape");
+      hsize_t expected = 1;
+      for (int i = 0; i < rank; ++i) {
+        if (chunk[std::size_t(i)] == 0) return "its chunk shape has a zero extent";
+        expected *= (dims[std::size_t(i)] + chunk[std::size_t(i)] - 1) / chunk[std::size_t(i)];
+      }
+      hsize_t stored = 0;
+      const Dataspace space(H5Dget_space(dataset));
+      if (!space || H5Dget_num_chunks(dataset, space.get(), &stored) < 0)
+        return with_detail("cannot count its chunks");
+      if (stored != expected)
+        return "the file stores " + std::to_string(stored) + " of its " + std::to_string(expected) +
+               " chunks (a shape larger than its data)";
+      return {};
+    }
+    default:
+      return "its storage layout is unknown";
+  }
+}
+
 bool read_dataset(hid_t group, const char* name, hid_t memory_type, std::size_t count, void* out) {
   if (!link_exists(group, name)) return false;
   const Dataset dataset(H5Dopen2(group, name, H5P_DEFAULT));
@@ -205,7 +258,8 @@ bool read_dataset(hid_t group, const char* name, hid_t memory_type, std::size_t 
   return count == 0 || H5Dread(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out) >= 0;
 }
 
-PropertyList motion_dataset_properties(Compression compression, const hsize_t chunk[3]) {
+PropertyList motion_dataset_properties(Compression compression, bool checksum,
+                                       const hsize_t chunk[3]) {
   PropertyList properties(H5Pcreate(H5P_DATASET_CREATE));
   if (!properties || H5Pset_chunk(properties.get(), 3, chunk) < 0) return {};
   // The padding of a clip's last, partial chunk is written as zeros, so the stored bytes depend
@@ -225,7 +279,7 @@ PropertyList motion_dataset_properties(Compression compression, const hsize_t ch
            H5Pset_deflate(properties.get(), unsigned(kDeflateLevel)) >= 0;
       break;
   }
-  if (!ok) return {};
+  if (!ok || (checksum && H5Pset_fletcher32(properties.get()) < 0)) return {};
   return properties;
 }
 

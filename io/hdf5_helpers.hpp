@@ -52,11 +52,18 @@ bool write_dataset(hid_t group, const char* name, hid_t file_type, hid_t memory_
                    std::span<const hsize_t> dims, const void* data);
 // Dimensions of a dataset; nullopt if it cannot be queried.
 std::optional<std::vector<hsize_t>> dataset_dims(hid_t dataset);
+// Why reading the whole of `dataset` (of `dims`, the caller has them) would allocate more than
+// the file holds for it, or "": a chunked dataset must have every chunk stored, a contiguous one
+// all its bytes. HDF5 hands out the fill value for what is missing, so without this a few bytes
+// claiming millions of frames would cost gigabytes of memory.
+std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims);
 // Reads a whole numeric dataset of `count` elements converted to `memory_type`.
 bool read_dataset(hid_t group, const char* name, hid_t memory_type, std::size_t count, void* out);
 
 // Creation properties of a [frames][joints][channels] float32 motion dataset: chunks of
-// chunk_frames() frames (io/compression.hpp), filtered for `compression`.
-PropertyList motion_dataset_properties(Compression compression, const hsize_t chunk[3]);
+// chunk_frames() frames (io/compression.hpp), filtered for `compression`, then, with
+// `checksum`, by Fletcher-32 (which HDF5 verifies on every read of a chunk).
+PropertyList motion_dataset_properties(Compression compression, bool checksum,
+                                       const hsize_t chunk[3]);
 
 }  // namespace mocap::io::h5

@@ -105,12 +105,21 @@ std::string check_clip_path(std::string_view clip_path) {
   return {};
 }
 
+std::string frame_time_range() {
+  char text[64];
+  std::snprintf(text, sizeof text, "between %g and %g s", kMinFrameTime, kMaxFrameTime);
+  return text;
+}
+
 std::string check_clip(const Clip& clip) {
   if (!clip.skeleton) return "the clip has no skeleton";
   if (std::string problem = check_structure(*clip.skeleton); !problem.empty())
     return "the clip's skeleton is malformed: " + problem;
-  if (!(std::isfinite(clip.frame_time) && clip.frame_time > 0))
-    return "frame_time must be finite and > 0, got " + std::to_string(clip.frame_time);
+  if (!valid_frame_time(clip.frame_time)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", clip.frame_time);
+    return "frame_time must be " + frame_time_range() + ", got " + text;
+  }
   if (clip.frames < 0) return "frames must be >= 0, got " + std::to_string(clip.frames);
   const std::size_t samples = std::size_t(clip.frames) * std::size_t(clip.joints());
   if (clip.rotations.size() != samples * 4)
@@ -122,6 +131,10 @@ std::string check_clip(const Clip& clip) {
            std::to_string(samples * 3) + " (" + std::to_string(clip.frames) + " frames x " +
            std::to_string(clip.joints()) + " joints x 3)";
   return {};
+}
+
+void skip_hdf5_cleanup_at_exit() {
+  H5dont_atexit();
 }
 
 void silence_hdf5_errors() {

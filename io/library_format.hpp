@@ -59,6 +59,17 @@ std::string clip_path_from_source(std::string_view relative_source_path);
 // Why `clip_path` cannot name a clip (empty, absolute, an empty, "." or ".." component), or "".
 std::string check_clip_path(std::string_view clip_path);
 
+// The frame times every reader and writer accepts, in seconds: BVH text and the library hold the
+// same range, so a clip read from one can always be written to the other (a fuzz finding: a
+// library frame_time of 1e300 was exported as BVH text that import refused).
+inline constexpr double kMinFrameTime = 1e-6;
+inline constexpr double kMaxFrameTime = 3600;
+inline bool valid_frame_time(double seconds) {
+  return seconds >= kMinFrameTime && seconds <= kMaxFrameTime;  // false for NaN too
+}
+// "between 1e-06 and 3600 s", for messages.
+std::string frame_time_range();
+
 // Why `clip` cannot be stored, or "": no skeleton, a skeleton that fails check_structure(),
 // frame_time not finite and > 0, negative frames, or tensor sizes other than F*J*4 and F*J*3.
 std::string check_clip(const Clip& clip);
@@ -66,6 +77,12 @@ std::string check_clip(const Clip& clip);
 // Turns off HDF5's printing of its error stack; the store reports errors in its own words (it
 // also silences HDF5 while inside its own calls, so this is for the rest of the program).
 void silence_hdf5_errors();
+
+// Call first in main(), before any other HDF5 call: keeps HDF5 from closing, at exit, files whose
+// close already failed. HDF5 1.10 crashes there (H5F__close_cb from H5_term_library) after a
+// write failed on a full disk; every file the store opens is closed, and its errors checked,
+// before the program ends, so nothing is left for that clean-up to do.
+void skip_hdf5_cleanup_at_exit();
 
 // The current time as UTC ISO 8601 with seconds, e.g. "2024-05-01T12:00:00Z".
 std::string utc_now_iso8601();

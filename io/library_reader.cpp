@@ -2,11 +2,17 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
 #include <map>
+#include <new>
 #include <set>
 #include <sstream>
 #include <utility>
 
+#include "io/bvh_reader.hpp"
+#include "io/chunk_codec.hpp"
+#include "io/clip_encoder.hpp"
+#include "io/clip_validation.hpp"
 #include "io/hdf5_handle.hpp"
 #include "io/hdf5_helpers.hpp"
 
@@ -66,6 +72,19 @@ std::optional<std::vector<hsize_t>> motion_dims(hid_t clip, const char* name,
                "; expected rank 3";
     return std::nullopt;
   }
+  // Bounded before anything is allocated: a shape is only a number in the file.
+  if ((*dims)[0] > hsize_t(INT_MAX) || (*dims)[1] > hsize_t(kMaxBvhJoints) || (*dims)[2] > 4 ||
+      (*dims)[0] * (*dims)[1] > hsize_t(kMaxClipJointFrames)) {
+    *problem = std::string("its '") + name + "' dataset has shape " + shape_text(*dims) +
+               ", more than the " + std::to_string(kMaxClipJointFrames) + " joint-frames (or " +
+               std::to_string(kMaxBvhJoints) + " joints) one clip may hold";
+    return std::nullopt;
+  }
+  if (std::string storage = h5::check_storage(dataset.get(), *dims); !storage.empty()) {
+    *problem = std::string("its '") + name + "' dataset has shape " + shape_text(*dims) + ", but " +
+               storage;
+    return std::nullopt;
+  }
   return dims;
 }
 
@@ -82,14 +101,19 @@ ClipHeader read_header(const State& state, hid_t clip, const std::string& path) 
     return fail("it has no valid 'skeleton' attribute (the name of a group in /skeletons)");
   header.skeleton = *skeleton;
   const auto frame_time = h5::read_double_attribute(clip, "frame_time");
-  if (!frame_time || !(*frame_time > 0)) return fail("it has no 'frame_time' attribute > 0");
+  if (!frame_time || !valid_frame_time(*frame_time))
+    return fail("it has no 'frame_time' attribute " + frame_time_range());
   header.frame_time = *frame_time;
   header.source = h5::read_string_attribute(clip, "source").value_or("");
   std::string problem;
   const auto dims = motion_dims(clip, "rotations", &problem);
   if (!dims) return fail(problem);
-  if ((*dims)[0] > hsize_t(INT_MAX) || (*dims)[1] > hsize_t(INT_MAX))
-    return fail("its rotations have shape " + shape_text(*dims) + ", too large");
+  const auto translations = motion_dims(clip, "translations", &problem);
+  if (!translations) return fail(problem);
+  // The joint count is checked against the skeleton by read_clip().
+  if ((*dims)[2] != 4 || (*translations)[2] != 3 || (*translations)[0] != (*dims)[0])
+    return fail("rotations " + shape_text(*dims) + " and translations " +
+                shape_text(*translations) + " are not [F, J, 4] and [F, J, 3]");
   header.frames = int((*dims)[0]);
   header.joints = int((*dims)[1]);
   return header;
@@ -146,13 +170,41 @@ void walk(const State& state, hid_t group, const std::string& prefix, Ancestors&
       out.push_back(std::move(broken));
       continue;
     }
-    if (info.type != H5O_TYPE_GROUP) continue;  // stray datasets are not clips
+    // Below /clips every object is a clip or a folder of clips: anything else is reported, so
+    // that no clip a damaged file lost goes missing without a word.
+    auto broken = [&](const std::string& problem) {
+      ClipHeader header;
+      header.path = path;
+      header.error = state.message("clip '" + path + "': " + problem);
+      out.push_back(std::move(header));
+    };
+    if (info.type != H5O_TYPE_GROUP) {
+      broken("a dataset or other object where a clip group or a folder of clips should be");
+      continue;
+    }
     const auto key = std::pair{info.fileno, info.addr};
     if (ancestors.count(key)) continue;
     const h5::Group child(H5Gopen2(group, name.c_str(), H5P_DEFAULT));
-    if (!child) continue;
-    if (h5::link_exists(child.get(), "rotations")) {
+    if (!child) {
+      broken(h5::with_detail("cannot open the group"));
+      continue;
+    }
+    H5G_info_t contents{};
+    if (H5Gget_info(child.get(), &contents) < 0) {
+      broken(h5::with_detail("cannot list the group"));
+      continue;
+    }
+    // A clip group is recognised by any of its parts, so one that lost its rotations is
+    // reported as a broken clip rather than walked as a folder.
+    const bool is_clip =
+        h5::link_exists(child.get(), "rotations") || h5::link_exists(child.get(), "translations") ||
+        H5Aexists(child.get(), "skeleton") > 0 || H5Aexists(child.get(), "frame_time") > 0;
+    if (is_clip) {
       out.push_back(read_header(state, child.get(), path));
+    } else if (contents.nlinks == 0) {
+      broken(
+          "an empty group: neither a clip (no 'rotations', 'translations', 'skeleton' or "
+          "'frame_time') nor a folder of clips");
     } else {
       ancestors.insert(key);
       walk(state, child.get(), path, ancestors, out);
@@ -192,6 +244,15 @@ std::shared_ptr<const Skeleton> read_skeleton(hid_t file, const std::string& nam
   }
   const hid_t g = group.get();
   auto skeleton = std::make_shared<Skeleton>();
+  if (h5::link_exists(g, "joint_names")) {
+    const h5::Dataset names_dataset(H5Dopen2(g, "joint_names", H5P_DEFAULT));
+    const auto dims = names_dataset ? h5::dataset_dims(names_dataset.get()) : std::nullopt;
+    if (dims && dims->size() == 1 && (*dims)[0] > hsize_t(kMaxBvhJoints)) {
+      *problem = where + "'joint_names' claims " + std::to_string((*dims)[0]) +
+                 " joints, more than the " + std::to_string(kMaxBvhJoints) + " allowed";
+      return nullptr;
+    }
+  }
   auto names = h5::read_string_dataset(g, "joint_names");
   if (!names) {
     *problem = where + "no readable 'joint_names' strings";
@@ -290,6 +351,25 @@ std::unique_ptr<LibraryReader> LibraryReader::open(const std::filesystem::path& 
   }
   state->file =
       h5::File(is_hdf5 > 0 ? H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT) : H5I_INVALID_HID);
+  return open_state(std::move(state), error);
+}
+
+std::unique_ptr<LibraryReader> LibraryReader::open_image(std::span<const std::uint8_t> image,
+                                                         const std::string& name,
+                                                         std::string* error) {
+  const h5::ErrorSilence quiet;
+  auto state = std::make_unique<State>();
+  state->path = name;
+  // The core driver reads the image in place of a file; HDF5 copies it, so `image` may go.
+  const h5::PropertyList access(H5Pcreate(H5P_FILE_ACCESS));
+  if (access && H5Pset_fapl_core(access.get(), 1 << 16, 0) >= 0 &&
+      H5Pset_file_image(access.get(), const_cast<std::uint8_t*>(image.data()), image.size()) >= 0)
+    state->file = h5::File(H5Fopen(name.c_str(), H5F_ACC_RDONLY, access.get()));
+  return open_state(std::move(state), error);
+}
+
+std::unique_ptr<LibraryReader> LibraryReader::open_state(std::unique_ptr<State> state,
+                                                         std::string* error) {
   if (!state->file) {
     state->fail(error, h5::with_detail("cannot open the file"));
     return nullptr;
@@ -356,77 +436,277 @@ std::shared_ptr<const Skeleton> LibraryReader::skeleton(const std::string& name,
   return skeleton;
 }
 
-std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
-                                             std::string* error) const {
-  const h5::ErrorSilence quiet;
+namespace {
+
+// A clip group opened, its header read and its shapes checked against its skeleton.
+struct OpenedClip {
+  h5::Group group;
+  ClipHeader header;
+  std::shared_ptr<const Skeleton> skeleton;
+};
+
+std::optional<OpenedClip> open_clip(State& state, const std::string& clip_path,
+                                    std::string* error) {
   const std::string where = "clip '" + clip_path + "': ";
   if (std::string problem = check_clip_path(clip_path); !problem.empty()) {
-    state_->fail(error, problem);
+    state.fail(error, problem);
     return std::nullopt;
   }
-  const h5::Group group(H5Gopen2(state_->file.get(), ("clips/" + clip_path).c_str(), H5P_DEFAULT));
-  if (!group || !h5::link_exists(group.get(), "rotations")) {
+  OpenedClip out;
+  out.group = h5::Group(H5Gopen2(state.file.get(), ("clips/" + clip_path).c_str(), H5P_DEFAULT));
+  if (!out.group) {
     h5::last_error_detail();
-    state_->fail(error, "no clip '" + clip_path + "' in /clips");
+    state.fail(error, "no clip '" + clip_path + "' in /clips");
     return std::nullopt;
   }
-  const ClipHeader header = read_header(*state_, group.get(), clip_path);
-  if (!header.error.empty()) {
-    if (error) *error = header.error;
+  const hid_t group = out.group.get();
+  out.header = read_header(state, group, clip_path);
+  if (!out.header.error.empty()) {
+    if (error) *error = out.header.error;
     return std::nullopt;
   }
-  std::shared_ptr<const Skeleton> skeleton;
-  if (auto known = state_->skeletons.find(header.skeleton); known != state_->skeletons.end()) {
-    skeleton = known->second;
+  const std::string& name = out.header.skeleton;
+  if (auto known = state.skeletons.find(name); known != state.skeletons.end()) {
+    out.skeleton = known->second;
   } else {
     // This file's /skeletons first, then those of the file holding the clip (an external part).
     std::string problem;
-    skeleton = read_skeleton(state_->file.get(), header.skeleton, &problem);
-    if (!skeleton) {
-      const h5::File own_file(H5Iget_file_id(group.get()));
+    out.skeleton = read_skeleton(state.file.get(), name, &problem);
+    if (!out.skeleton) {
+      const h5::File own_file(H5Iget_file_id(group));
       std::string own_problem;
-      if (own_file) skeleton = read_skeleton(own_file.get(), header.skeleton, &own_problem);
-      if (!skeleton) {
-        state_->fail(error, where + problem);
+      if (own_file) out.skeleton = read_skeleton(own_file.get(), name, &own_problem);
+      if (!out.skeleton) {
+        state.fail(error, where + problem);
         return std::nullopt;
       }
     }
-    state_->skeletons.emplace(header.skeleton, skeleton);
+    state.skeletons.emplace(name, out.skeleton);
   }
-  const int joints = skeleton->joint_count();
+  const int joints = out.skeleton->joint_count();
   std::string problem;
-  const auto rotations = motion_dims(group.get(), "rotations", &problem);
-  const auto translations =
-      rotations ? motion_dims(group.get(), "translations", &problem) : std::nullopt;
+  const auto rotations = motion_dims(group, "rotations", &problem);
+  const auto translations = rotations ? motion_dims(group, "translations", &problem) : std::nullopt;
   if (!rotations || !translations) {
-    state_->fail(error, where + problem);
+    state.fail(error, where + problem);
     return std::nullopt;
   }
   const std::vector<hsize_t> want_rotations = {(*rotations)[0], hsize_t(joints), 4};
   const std::vector<hsize_t> want_translations = {(*rotations)[0], hsize_t(joints), 3};
   if (*rotations != want_rotations || *translations != want_translations) {
-    state_->fail(error, where + "rotations " + shape_text(*rotations) + " and translations " +
-                            shape_text(*translations) + " do not match skeleton '" +
-                            header.skeleton + "' of " + std::to_string(joints) +
-                            " joints: expected [F, " + std::to_string(joints) + ", 4] and [F, " +
-                            std::to_string(joints) + ", 3] with equal F");
+    state.fail(error, where + "rotations " + shape_text(*rotations) + " and translations " +
+                          shape_text(*translations) + " do not match skeleton '" + name + "' of " +
+                          std::to_string(joints) + " joints: expected [F, " +
+                          std::to_string(joints) + ", 4] and [F, " + std::to_string(joints) +
+                          ", 3] with equal F");
     return std::nullopt;
   }
+  return out;
+}
+
+// The filters of a motion dataset as (compression, checksum), when they are a pipeline this
+// store writes: [shuffle, lz4 | deflate] or none, then optionally Fletcher-32.
+std::optional<std::pair<Compression, bool>> known_pipeline(hid_t properties) {
+  const int count = H5Pget_nfilters(properties);
+  if (count < 0) return std::nullopt;
+  std::vector<H5Z_filter_t> ids;
+  for (int i = 0; i < count; ++i) {
+    unsigned flags = 0;
+    std::size_t values = 0;
+    ids.push_back(
+        H5Pget_filter2(properties, unsigned(i), &flags, &values, nullptr, 0, nullptr, nullptr));
+  }
+  const bool checksum = !ids.empty() && ids.back() == H5Z_FILTER_FLETCHER32;
+  if (checksum) ids.pop_back();
+  if (ids.empty()) return std::pair{Compression::none, checksum};
+  if (ids.size() == 2 && ids[0] == H5Z_FILTER_SHUFFLE) {
+    if (ids[1] == H5Z_filter_t(kLz4FilterId)) return std::pair{Compression::lz4, checksum};
+    if (ids[1] == H5Z_FILTER_DEFLATE) return std::pair{Compression::deflate, checksum};
+  }
+  return std::nullopt;
+}
+
+// Reads the stored chunks of a motion dataset as they are, into `out`; a problem, or "" . Sets
+// *unusual when the dataset is not laid out as this store writes it (then nothing is read).
+std::string read_stored_chunks(hid_t group, const char* name, int frames, int joints, int channels,
+                               Compression compression, bool checksum, EncodedDataset& out,
+                               bool* unusual) {
+  const h5::Dataset dataset(H5Dopen2(group, name, H5P_DEFAULT));
+  const h5::PropertyList properties(dataset ? H5Dget_create_plist(dataset.get()) : H5I_INVALID_HID);
+  if (!dataset || !properties)
+    return h5::with_detail(std::string("cannot open its '") + name + "' dataset");
+  out.frames = frames;
+  out.joints = joints;
+  out.channels = channels;
+  out.chunk_frames = chunk_frames(frames, std::size_t(joints) * std::size_t(channels) * 4);
+  const auto pipeline = known_pipeline(properties.get());
+  hsize_t chunk[3] = {0, 0, 0};
+  if (!pipeline || pipeline->first != compression || pipeline->second != checksum ||
+      H5Pget_layout(properties.get()) != H5D_CHUNKED ||
+      H5Pget_chunk(properties.get(), 3, chunk) != 3 || chunk[0] != hsize_t(out.chunk_frames) ||
+      chunk[1] != hsize_t(joints) || chunk[2] != hsize_t(channels)) {
+    *unusual = true;
+    return {};
+  }
+  const std::size_t chunks =
+      (std::size_t(frames) + std::size_t(out.chunk_frames) - 1) / std::size_t(out.chunk_frames);
+  for (std::size_t k = 0; k < chunks; ++k) {
+    const hsize_t offset[3] = {hsize_t(k) * hsize_t(out.chunk_frames), 0, 0};
+    hsize_t size = 0;
+    uint32_t mask = 0;
+    if (H5Dget_chunk_storage_size(dataset.get(), offset, &size) < 0 || size == 0)
+      return h5::with_detail("cannot find chunk " + std::to_string(k) + " of its '" + name +
+                             "' dataset");
+    const std::size_t begin = out.bytes.size();
+    out.bytes.resize(begin + std::size_t(size));
+    if (H5Dread_chunk(dataset.get(), H5P_DEFAULT, offset, &mask, out.bytes.data() + begin) < 0)
+      return h5::with_detail("cannot read chunk " + std::to_string(k) + " of its '" + name +
+                             "' dataset");
+    if (mask != 0) {  // a chunk stored with some filter skipped: decode it instead
+      *unusual = true;
+      return {};
+    }
+    // Raw reads bypass HDF5's verification: the checksum is checked here, so a copy never
+    // carries a damaged chunk on under a fresh name.
+    if (checksum) {
+      const std::span<const std::uint8_t> stored(out.bytes.data() + begin, std::size_t(size));
+      std::uint32_t recorded = 0;
+      for (int i = 0; i < 4 && size >= 4; ++i)
+        recorded |= std::uint32_t(stored[stored.size() - 4 + std::size_t(i)]) << (8 * i);
+      if (size < 4 || fletcher32(stored.first(stored.size() - 4)) != recorded)
+        return "chunk " + std::to_string(k) + " of its '" + name +
+               "' dataset fails its Fletcher32 checksum (the file is damaged)";
+    }
+    out.chunk_ends.push_back(out.bytes.size());
+  }
+  return {};
+}
+
+}  // namespace
+
+std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
+                                             std::string* error) const {
+  const h5::ErrorSilence quiet;
+  const std::string where = "clip '" + clip_path + "': ";
+  auto opened = open_clip(*state_, clip_path, error);
+  if (!opened) return std::nullopt;
+  const int joints = opened->skeleton->joint_count();
   Clip clip;
-  clip.skeleton = skeleton;
-  clip.frame_time = header.frame_time;
-  clip.frames = header.frames;
-  clip.source = header.source;
+  clip.skeleton = opened->skeleton;
+  clip.frame_time = opened->header.frame_time;
+  clip.frames = opened->header.frames;
+  clip.source = opened->header.source;
   const std::size_t samples = std::size_t(clip.frames) * std::size_t(joints);
-  clip.rotations.resize(samples * 4);
-  clip.translations.resize(samples * 3);
-  problem = read_floats(group.get(), "rotations", clip.rotations);
-  if (problem.empty()) problem = read_floats(group.get(), "translations", clip.translations);
+  try {
+    clip.rotations.resize(samples * 4);
+    clip.translations.resize(samples * 3);
+  } catch (const std::bad_alloc&) {
+    state_->fail(error, where + "out of memory for its " + std::to_string(clip.frames) +
+                            " frames x " + std::to_string(joints) + " joints");
+    return std::nullopt;
+  }
+  std::string problem = read_floats(opened->group.get(), "rotations", clip.rotations);
+  if (problem.empty())
+    problem = read_floats(opened->group.get(), "translations", clip.translations);
   if (!problem.empty()) {
     state_->fail(error, where + problem);
     return std::nullopt;
   }
   return clip;
+}
+
+namespace {
+
+// The clip group's provenance as write_clip_provenance (library_writer.cpp) left it, so that a
+// join carries it over; an [N][C] int32 dataset of at most kMaxRecords rows.
+std::vector<std::int32_t> read_records(hid_t group, const char* name, hsize_t columns) {
+  constexpr hsize_t kMaxRecords = 100'000'000;
+  std::vector<std::int32_t> out;
+  if (!h5::link_exists(group, name)) return out;
+  const h5::Dataset set(H5Dopen2(group, name, H5P_DEFAULT));
+  if (!set) return out;
+  const h5::Dataspace space(H5Dget_space(set.get()));
+  hsize_t dims[2] = {0, 0};
+  if (!space || H5Sget_simple_extent_ndims(space.get()) != 2 ||
+      H5Sget_simple_extent_dims(space.get(), dims, nullptr) != 2 || dims[1] != columns ||
+      dims[0] > kMaxRecords)
+    return out;
+  out.resize(std::size_t(dims[0] * dims[1]));
+  if (!out.empty() && !h5::read_dataset(group, name, H5T_NATIVE_INT32, out.size(), out.data()))
+    out.clear();
+  return out;
+}
+
+ClipProvenance read_clip_provenance(hid_t group) {
+  ClipProvenance p;
+  if (auto method = h5::read_string_attribute(group, "method")) p.method = *method;
+  if (p.method.empty()) return p;
+  if (auto parameters = h5::read_string_attribute(group, "parameters"))
+    p.parameters_json = *parameters;
+  if (auto sigma = h5::read_double_attribute(group, "noise_sigma")) p.noise_sigma = *sigma;
+  p.pop_stage = h5::link_exists(group, "pops");
+  if (p.pop_stage) {
+    p.pops = read_records(group, "pops", 2);
+    const h5::Dataset pops(H5Dopen2(group, "pops", H5P_DEFAULT));
+    if (pops)
+      if (auto repaired = h5::read_int_attribute(pops.get(), "repaired"))
+        p.pops_repaired = *repaired != 0;
+  }
+  p.feet = h5::link_exists(group, "contacts");
+  if (p.feet) p.contacts = read_records(group, "contacts", 3);
+  return p;
+}
+
+}  // namespace
+
+std::optional<EncodedClip> LibraryReader::read_encoded(const std::string& clip_path,
+                                                       std::string* error) const {
+  const h5::ErrorSilence quiet;
+  const std::string where = "clip '" + clip_path + "': ";
+  auto opened = open_clip(*state_, clip_path, error);
+  if (!opened) return std::nullopt;
+  const hid_t group = opened->group.get();
+  EncodedClip clip;
+  clip.skeleton = opened->skeleton;
+  clip.frame_time = opened->header.frame_time;
+  clip.frames = opened->header.frames;
+  clip.source = opened->header.source;
+  clip.provenance = read_clip_provenance(group);
+  const int joints = opened->skeleton->joint_count();
+  // The rotations' pipeline decides; translations written otherwise are decoded below.
+  const h5::Dataset rotations(H5Dopen2(group, "rotations", H5P_DEFAULT));
+  const h5::PropertyList properties(rotations ? H5Dget_create_plist(rotations.get())
+                                              : H5I_INVALID_HID);
+  const auto pipeline = properties ? known_pipeline(properties.get()) : std::nullopt;
+  bool unusual = !pipeline;
+  std::string problem;
+  try {
+    if (pipeline) {
+      clip.compression = pipeline->first;
+      clip.checksum = pipeline->second;
+      problem = read_stored_chunks(group, "rotations", clip.frames, joints, 4, clip.compression,
+                                   clip.checksum, clip.rotations, &unusual);
+      if (problem.empty() && !unusual)
+        problem = read_stored_chunks(group, "translations", clip.frames, joints, 3,
+                                     clip.compression, clip.checksum, clip.translations, &unusual);
+    }
+  } catch (const std::bad_alloc&) {
+    problem = "out of memory for its stored chunks";
+  }
+  if (!problem.empty()) {
+    state_->fail(error, where + problem);
+    return std::nullopt;
+  }
+  if (!unusual) return clip;
+  // Laid out otherwise (another tool wrote it): decoded, then stored as this store stores.
+  auto decoded = read_clip(clip_path, error);
+  if (!decoded) return std::nullopt;
+  const Compression compression =
+      pipeline && compression_available(pipeline->first) ? pipeline->first : Compression::none;
+  auto encoded = encode_clip(*decoded, compression, error, true);
+  if (!encoded && error) *error = state_->message(where + *error);
+  if (encoded) encoded->provenance = clip.provenance;
+  return encoded;
 }
 
 std::optional<Provenance> LibraryReader::provenance() const {

@@ -15,6 +15,7 @@ namespace detail {
 struct LibraryWriterState {
   std::filesystem::path path;
   Compression compression = Compression::none;
+  bool checksum = true;
   h5::File file;
   h5::Group skeletons, clips;
   // Skeletons this file holds, by name: a clip's skeleton is written with its first clip only.
@@ -51,7 +52,7 @@ std::vector<std::string> split(const std::string& path) {
 }
 
 h5::Dataset create_motion_dataset(hid_t group, const char* name, int frames, int joints,
-                                  int channels, Compression compression) {
+                                  int channels, Compression compression, bool checksum) {
   const hsize_t dims[3] = {hsize_t(frames), hsize_t(joints), hsize_t(channels)};
   // A chunked dataset's chunk may not exceed a fixed extent, so an empty clip gets an
   // unlimited frame axis for its one-frame chunk.
@@ -60,25 +61,28 @@ h5::Dataset create_motion_dataset(hid_t group, const char* name, int frames, int
       hsize_t(chunk_frames(frames, std::size_t(joints) * std::size_t(channels) * sizeof(float))),
       dims[1], dims[2]};
   const h5::Dataspace space(H5Screate_simple(3, dims, max_dims));
-  const h5::PropertyList properties = h5::motion_dataset_properties(compression, chunk);
+  const h5::PropertyList properties = h5::motion_dataset_properties(compression, checksum, chunk);
   if (!space || !properties) return {};
   return h5::Dataset(H5Dcreate2(group, name, H5T_IEEE_F32LE, space.get(), H5P_DEFAULT,
                                 properties.get(), H5P_DEFAULT));
 }
 
 std::string write_motion(hid_t group, const char* name, const std::vector<float>& values,
-                         int frames, int joints, int channels, Compression compression) {
+                         int frames, int joints, int channels, Compression compression,
+                         bool checksum) {
   const h5::Dataset dataset =
-      create_motion_dataset(group, name, frames, joints, channels, compression);
-  if (!dataset) return std::string("cannot create dataset '") + name + "'";
+      create_motion_dataset(group, name, frames, joints, channels, compression, checksum);
+  // The detail is taken at once: the next HDF5 call (a close) clears the error stack.
+  if (!dataset) return h5::with_detail(std::string("cannot create dataset '") + name + "'");
   if (frames > 0 &&
       H5Dwrite(dataset.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0)
-    return std::string("cannot write dataset '") + name + "'";
+    return h5::with_detail(std::string("cannot write dataset '") + name + "'");
   return {};
 }
 
 std::string write_encoded_motion(hid_t group, const char* name, const EncodedDataset& encoded,
-                                 int frames, int joints, int channels, Compression compression) {
+                                 int frames, int joints, int channels, Compression compression,
+                                 bool checksum) {
   const std::size_t frame_bytes = std::size_t(joints) * std::size_t(channels) * sizeof(float);
   const int per_chunk = chunk_frames(frames, frame_bytes);
   const std::size_t chunks = (std::size_t(frames) + std::size_t(per_chunk) - 1) / per_chunk;
@@ -88,13 +92,14 @@ std::string write_encoded_motion(hid_t group, const char* name, const EncodedDat
            std::to_string(frames) + ", " + std::to_string(joints) + ", " +
            std::to_string(channels) + "]";
   const h5::Dataset dataset =
-      create_motion_dataset(group, name, frames, joints, channels, compression);
-  if (!dataset) return std::string("cannot create dataset '") + name + "'";
+      create_motion_dataset(group, name, frames, joints, channels, compression, checksum);
+  if (!dataset) return h5::with_detail(std::string("cannot create dataset '") + name + "'");
   for (std::size_t k = 0; k < chunks; ++k) {
     const hsize_t offset[3] = {hsize_t(k) * hsize_t(per_chunk), 0, 0};
     const auto bytes = encoded.chunk(k);
     if (H5Dwrite_chunk(dataset.get(), H5P_DEFAULT, 0, offset, bytes.size(), bytes.data()) < 0)
-      return std::string("cannot write chunk ") + std::to_string(k) + " of '" + name + "'";
+      return h5::with_detail(std::string("cannot write chunk ") + std::to_string(k) + " of '" +
+                             name + "'");
   }
   return {};
 }
@@ -126,7 +131,7 @@ std::string write_clip_provenance(hid_t group, const ClipProvenance& p) {
 
 std::string write_skeleton(hid_t skeletons, const std::string& name, const Skeleton& s) {
   const h5::Group group(H5Gcreate2(skeletons, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
-  if (!group) return "cannot create skeleton group '" + name + "'";
+  if (!group) return h5::with_detail("cannot create skeleton group '" + name + "'");
   const std::size_t n = std::size_t(s.joint_count());
   std::vector<std::string> channels(n);
   std::vector<double> offsets(n * 3), end_sites(n * 3, 0.0);
@@ -153,7 +158,7 @@ std::string write_skeleton(hid_t skeletons, const std::string& name, const Skele
                         end_sites.data()) &&
       h5::write_dataset(g, "has_end_site", H5T_STD_U8LE, H5T_NATIVE_UINT8, list,
                         has_end_site.data());
-  return ok ? std::string() : "cannot write skeleton '" + name + "'";
+  return ok ? std::string() : h5::with_detail("cannot write skeleton '" + name + "'");
 }
 
 // Creates /clips/<clip_path> and its parents, fills it, and adds the skeleton if new; on any
@@ -209,11 +214,11 @@ bool write_clip_group(State& state, const std::string& clip_path, const ClipFiel
     const h5::Group clip(
         H5Gcreate2(parent(), parts.back().c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
     if (!clip) {
-      problem = "cannot create its group";
+      problem = h5::with_detail("cannot create its group");
     } else if (!h5::write_string_attribute(clip.get(), "skeleton", name) ||
                !h5::write_double_attribute(clip.get(), "frame_time", fields.frame_time) ||
                !h5::write_string_attribute(clip.get(), "source", fields.source)) {
-      problem = "cannot write its attributes";
+      problem = h5::with_detail("cannot write its attributes");
     } else {
       problem = write_datasets(clip.get());
     }
@@ -243,11 +248,13 @@ LibraryWriter::~LibraryWriter() {
 }
 
 std::unique_ptr<LibraryWriter> LibraryWriter::create(const std::filesystem::path& path,
-                                                     Compression compression, std::string* error) {
+                                                     Compression compression, std::string* error,
+                                                     bool checksum) {
   const h5::ErrorSilence quiet;
   auto state = std::make_unique<State>();
   state->path = path;
   state->compression = compression;
+  state->checksum = checksum;
   if (std::string reason = compression_unavailable_reason(compression); !reason.empty()) {
     state->fail(error, reason);
     return nullptr;
@@ -285,15 +292,16 @@ bool LibraryWriter::write_clip(const std::string& clip_path, const Clip& clip, s
   if (std::string problem = check_clip(clip); !problem.empty())
     return state_->fail(error, "clip '" + clip_path + "': " + problem);
   const Compression compression = state_->compression;
+  const bool checksum = state_->checksum;
   const int frames = clip.frames, joints = clip.joints();
   return write_clip_group(
       *state_, clip_path, {clip.skeleton, clip.frame_time, clip.source},
       [&](hid_t group) {
-        std::string problem =
-            write_motion(group, "rotations", clip.rotations, frames, joints, 4, compression);
+        std::string problem = write_motion(group, "rotations", clip.rotations, frames, joints, 4,
+                                           compression, checksum);
         if (problem.empty())
           problem = write_motion(group, "translations", clip.translations, frames, joints, 3,
-                                 compression);
+                                 compression, checksum);
         if (problem.empty()) problem = write_clip_provenance(group, clip.provenance);
         return problem;
       },
@@ -308,18 +316,30 @@ bool LibraryWriter::write_encoded(const std::string& clip_path, const EncodedCli
     return state_->fail(error, where + "encoded with " + std::string(to_string(clip.compression)) +
                                    ", but this file is written with " +
                                    std::string(to_string(state_->compression)));
+  if (clip.checksum != state_->checksum)
+    return state_->fail(error, where + "encoded " + (clip.checksum ? "with" : "without") +
+                                   " checksums, but this file is written " +
+                                   (state_->checksum ? "with" : "without"));
+  return write_encoded_as_is(clip_path, clip, error);
+}
+
+bool LibraryWriter::write_encoded_as_is(const std::string& clip_path, const EncodedClip& clip,
+                                        std::string* error) {
+  const h5::ErrorSilence quiet;
+  const std::string where = "clip '" + clip_path + "': ";
   if (!clip.skeleton || !check_structure(*clip.skeleton).empty())
     return state_->fail(error, where + "the encoded clip has no valid skeleton");
-  const Compression compression = state_->compression;
+  const Compression compression = clip.compression;
+  const bool checksum = clip.checksum;
   const int frames = clip.frames, joints = clip.skeleton->joint_count();
   return write_clip_group(
       *state_, clip_path, {clip.skeleton, clip.frame_time, clip.source},
       [&](hid_t group) {
         std::string problem = write_encoded_motion(group, "rotations", clip.rotations, frames,
-                                                   joints, 4, compression);
+                                                   joints, 4, compression, checksum);
         if (problem.empty())
           problem = write_encoded_motion(group, "translations", clip.translations, frames, joints,
-                                         3, compression);
+                                         3, compression, checksum);
         if (problem.empty()) problem = write_clip_provenance(group, clip.provenance);
         return problem;
       },
@@ -348,16 +368,23 @@ bool LibraryWriter::close(std::string* error) {
   const h5::ErrorSilence quiet;
   if (!state_->file) return true;
   const bool flushed = H5Fflush(state_->file.get(), H5F_SCOPE_GLOBAL) >= 0;
+  std::string detail = flushed ? std::string() : h5::last_error_detail();  // before the closes
   state_->skeletons.reset();
   state_->clips.reset();
   const bool closed = state_->file.reset();
+  if (!closed && detail.empty()) detail = h5::last_error_detail();
   if (!flushed || !closed)
-    return state_->fail(error, h5::with_detail("cannot flush and close the file"));
+    return state_->fail(error, "cannot flush and close the file" +
+                                   (detail.empty() ? std::string() : " (HDF5: " + detail + ")"));
   return true;
 }
 
 Compression LibraryWriter::compression() const {
   return state_->compression;
+}
+
+bool LibraryWriter::checksum() const {
+  return state_->checksum;
 }
 
 const std::filesystem::path& LibraryWriter::path() const {

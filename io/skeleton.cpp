@@ -1,6 +1,9 @@
 #include "io/skeleton.hpp"
 
 #include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <unordered_map>
 
 namespace mocap::io {
 
@@ -66,15 +69,43 @@ bool Skeleton::operator==(const Skeleton& o) const {
   return true;
 }
 
+std::string check_joint_name(std::string_view name) {
+  if (name.empty()) return "the name is empty";
+  for (char c : name)
+    if (c == '\n' || c == '\r' || c == '{' || c == '}' || c == '\0')
+      return "the name holds a line break, brace or NUL";
+  if (name.front() == ' ' || name.front() == '\t' || name.back() == ' ' || name.back() == '\t')
+    return "the name begins or ends with a blank";
+  return {};
+}
+
 std::string check_structure(const Skeleton& s) {
   const std::size_t n = s.joint_names.size();
   if (n == 0) return "the skeleton has no joints";
   if (s.parents.size() != n || s.offsets.size() != n || s.channels.size() != n ||
       s.end_sites.size() != n)
     return "the skeleton's joint arrays differ in length";
+  // Offsets become float translations and BVH text: both must hold them.
+  auto storable = [](const Vec3& v) {
+    return std::abs(v.x) <= FLT_MAX && std::abs(v.y) <= FLT_MAX && std::abs(v.z) <= FLT_MAX;
+  };
+  std::unordered_map<std::string_view, std::size_t> seen_names;
   for (std::size_t j = 0; j < n; ++j) {
+    const std::string& name = s.joint_names[j];
+    if (std::string why = check_joint_name(name); !why.empty())
+      return "joint " + std::to_string(j) + " ('" + name + "'): " + why;
+    if (const auto [it, fresh] = seen_names.emplace(name, j); !fresh)
+      return "joint name '" + name + "' is used by joints " + std::to_string(it->second) + " and " +
+             std::to_string(j) + "; joint names must be unique";
+    if (j == 0 && s.parents[0] != -1) return "joint '" + name + "', the first, must be the root";
+    if (j > 0 && s.parents[j] == -1)
+      return "joint '" + name + "' is a second root; a skeleton has exactly one";
     if (s.parents[j] >= int(j) || s.parents[j] < -1)
       return "joint '" + s.joint_names[j] + "' has a parent that does not precede it";
+    if (!storable(s.offsets[j]))
+      return "joint '" + name + "' has a non-finite or out-of-range offset";
+    if (s.end_sites[j] && !storable(*s.end_sites[j]))
+      return "joint '" + name + "' has a non-finite or out-of-range End Site";
     int rotations = 0, positions = 0;
     bool seen[6] = {};
     for (Channel c : s.channels[j]) {

@@ -42,8 +42,15 @@ struct Skeleton {
   bool operator==(const Skeleton&) const;
 };
 
-// Checks the structure (sizes agree, parents precede children, 0 or 3 rotation and position
-// channels, no repeated channel); returns an explanation or an empty string.
+// Why `name` cannot name a joint (empty; a line break, brace or NUL; outer blanks: what BVH
+// text cannot carry), or "".
+std::string check_joint_name(std::string_view name);
+
+// Checks the structure (sizes agree, joint names valid and unique, exactly one root and it comes
+// first, parents precede children, offsets and End Sites finite and within float range, 0 or 3
+// rotation and position channels, no repeated channel); returns an explanation or "". Every
+// reader and writer of skeletons (BVH and library) applies it, so none accepts what another
+// refuses.
 std::string check_structure(const Skeleton& skeleton);
 
 }  // namespace mocap::io

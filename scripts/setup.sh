@@ -12,6 +12,7 @@ packages=(
   hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py python3-numpy
   pybind11-dev python3-pybind11 python3-dev python3-pytest python3-scipy
   libopenmpi-dev openmpi-bin
+  clang  # the libFuzzer targets in fuzz/ (-DMOCAP_FUZZ=ON with CXX=clang++)
 )
 missing=()
 for p in "${packages[@]}"; do

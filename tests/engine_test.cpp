@@ -158,7 +158,7 @@ TEST_F(EngineTest, AClipWithNaNFailsAloneWithItsReason) {
   const auto summary = nlohmann::json::parse(r.out);
   ASSERT_EQ(summary["failed"].size(), 1u);
   EXPECT_EQ(summary["failed"][0]["clip"], "zz/poisoned");
-  EXPECT_NE(summary["failed"][0]["error"].get<std::string>().find("NaN in rotations at frame 20"),
+  EXPECT_NE(summary["failed"][0]["error"].get<std::string>().find("NaN in rotations at frame 21"),
             std::string::npos);
   EXPECT_EQ(read_library(out).size(), library_.size());
 }

@@ -1,0 +1,55 @@
+#include "io/clip_validation.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "io/library_format.hpp"
+
+namespace mocap::io {
+
+namespace {
+
+std::string at(const Clip& clip, int frame, int joint) {
+  return "frame " + std::to_string(frame + 1) + ", joint '" +
+         clip.skeleton->joint_names[std::size_t(joint)] + "'";
+}
+
+}  // namespace
+
+std::string validate_clip(const Clip& clip) {
+  if (std::string problem = check_clip(clip); !problem.empty()) return problem;
+  const int joints = clip.joints();
+  if (std::int64_t(clip.frames) * joints > kMaxClipJointFrames)
+    return std::to_string(clip.frames) + " frames x " + std::to_string(joints) +
+           " joints exceed the " + std::to_string(kMaxClipJointFrames) +
+           " joint-frames one clip may hold";
+  if (clip.frames > 0 && clip.skeleton->channel_count() == 0)
+    return "the skeleton has no channels, yet the clip has " + std::to_string(clip.frames) +
+           " frames (BVH could not hold them)";
+  const RotationView rotations = clip.rotation_view();
+  const TranslationView translations = clip.translation_view();
+  for (int t = 0; t < clip.frames; ++t) {
+    for (int j = 0; j < joints; ++j) {
+      const float* q = rotations.at(t, j);
+      const float* p = translations.at(t, j);
+      for (int c = 0; c < 4; ++c)
+        if (!std::isfinite(q[c]))
+          return std::string(std::isnan(q[c]) ? "NaN" : "infinity") + " in rotations at " +
+                 at(clip, t, j);
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(p[c]))
+          return std::string(std::isnan(p[c]) ? "NaN" : "infinity") + " in translations at " +
+                 at(clip, t, j);
+      const double norm = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] +
+                                    double(q[2]) * q[2] + double(q[3]) * q[3]);
+      if (std::abs(norm - 1.0) > 1e-3) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.6g", norm);
+        return "rotation at " + at(clip, t, j) + " is not a unit quaternion (norm " + text + ")";
+      }
+    }
+  }
+  return {};
+}
+
+}  // namespace mocap::io
