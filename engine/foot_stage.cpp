@@ -116,4 +116,28 @@ std::string describe_feet(const nlohmann::json& summary) {
                      lowered ? fmt::format(", root lowered on {} frames", lowered) : "");
 }
 
+Status lock_feet_in_segments(ClipFeet& feet, io::Clip& filtered,
+                             const std::vector<Segment>& segments) {
+  const std::size_t joints = std::size_t(filtered.joints());
+  std::vector<std::pair<Segment, std::pair<std::vector<float>, std::vector<float>>>> kept;
+  for (const Segment& s : segments) {
+    if (s.frames() >= 2) continue;
+    const std::size_t begin = std::size_t(s.begin) * joints, end = std::size_t(s.end) * joints;
+    kept.push_back({s,
+                    {std::vector<float>(filtered.rotations.begin() + std::ptrdiff_t(begin * 4),
+                                        filtered.rotations.begin() + std::ptrdiff_t(end * 4)),
+                     std::vector<float>(filtered.translations.begin() + std::ptrdiff_t(begin * 3),
+                                        filtered.translations.begin() + std::ptrdiff_t(end * 3))}});
+  }
+  const Status status = lock_feet(feet, filtered);
+  for (const auto& [s, values] : kept) {
+    const std::size_t begin = std::size_t(s.begin) * joints;
+    std::copy(values.first.begin(), values.first.end(),
+              filtered.rotations.begin() + std::ptrdiff_t(begin * 4));
+    std::copy(values.second.begin(), values.second.end(),
+              filtered.translations.begin() + std::ptrdiff_t(begin * 3));
+  }
+  return status;
+}
+
 }  // namespace mocap::engine

@@ -10,6 +10,7 @@
 #include "io/clip.hpp"
 #include "kernels/foot_contacts.hpp"
 #include "kernels/foot_lock.hpp"
+#include "kernels/motion_split.hpp"
 
 namespace mocap::engine {
 
@@ -26,6 +27,12 @@ ClipFeet detect_feet(const io::Clip& clip);
 
 // Pins the planted feet of `filtered` (the clip detect_feet saw, filtered) in place.
 Status lock_feet(ClipFeet& feet, io::Clip& filtered, const FootLockParams& params = {});
+
+// lock_feet, with the frames of the segments the filter leaves as they came (one-frame segments
+// between impossible steps, kernels/motion_split.hpp: CMU's synthetic T-pose frame 0) restored
+// afterwards: they are not motion, and a T-pose must come out a T-pose.
+Status lock_feet_in_segments(ClipFeet& feet, io::Clip& filtered,
+                             const std::vector<Segment>& segments);
 
 // Over a run: contacts per clip.
 struct FeetTally {

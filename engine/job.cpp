@@ -127,7 +127,8 @@ RunSummary run_job(const Job& job) {
     item.input = {};  // free the input early: only the output goes on
     if (feet.lock) {
       auto& state = std::any_cast<ClipState&>(item.context);
-      if (const Status s = lock_feet(state.feet, item.output); !s.ok())
+      if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments);
+          !s.ok())
         return item.fail("foot lock: " + s.message());
     }
     if (measure) {

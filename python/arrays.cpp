@@ -87,6 +87,7 @@ Borrowed borrow(py::handle object, int channels, bool scalar_first, const char* 
   return b;
 }
 
+// Frames counted from 1, as the engine's messages (io/clip_validation.cpp) and BVH errors count.
 std::string check_rotation_values(RotationView rotations) {
   for (int t = 0; t < rotations.frames; ++t)
     for (int j = 0; j < rotations.joints; ++j) {
@@ -94,12 +95,13 @@ std::string check_rotation_values(RotationView rotations) {
       for (int c = 0; c < 4; ++c)
         if (!std::isfinite(q[c]))
           return fmt::format("{} in rotations at frame {}, joint '{}'",
-                             std::isnan(q[c]) ? "NaN" : "infinity", t, j);
+                             std::isnan(q[c]) ? "NaN" : "infinity", t + 1, j);
       const double norm = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] +
                                     double(q[2]) * q[2] + double(q[3]) * q[3]);
       if (std::abs(norm - 1.0) > 1e-3)
         return fmt::format(
-            "rotation at frame {}, joint '{}' is not a unit quaternion (norm {:.6g})", t, j, norm);
+            "rotation at frame {}, joint '{}' is not a unit quaternion (norm {:.6g})", t + 1, j,
+            norm);
     }
   return {};
 }

@@ -27,6 +27,7 @@
 #include "engine/commands.hpp"
 #include "engine/filter_options.hpp"
 #include "engine/filter_settings.hpp"
+#include "engine/foot_stage.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/version.hpp"
 #include "io/bvh_reader.hpp"
@@ -75,14 +76,16 @@ FilterSettings parse_settings(const std::string& method, const Options& options)
   return settings;
 }
 
-// A skeleton for bare arrays: J joints named by index, so that messages read "joint '3'"; every
-// joint carries rotation channels, and position channels when translations are given (the
+// A skeleton for bare arrays: J joints named by index, so that messages read "joint '3'", joint 0
+// the root and the others its children (no legs: feet are not locked); every joint carries
+// rotation channels, and position channels when translations are given (the
 // engine filters the translations of joints with position channels).
 std::shared_ptr<const io::Skeleton> array_skeleton(int joints, bool translated) {
   auto s = std::make_shared<io::Skeleton>();
   for (int j = 0; j < joints; ++j) {
     s->joint_names.push_back(std::to_string(j));
-    s->parents.push_back(-1);
+    // One root (the library and BVH checks refuse a second), the others its children.
+    s->parents.push_back(j == 0 ? -1 : 0);
     s->offsets.push_back({});
     std::vector<io::Channel> channels;
     if (translated)
@@ -158,8 +161,19 @@ Outcome run_clip(const FilterSettings& settings, io::Clip input, int threads) {
   make_hemisphere_continuous(input.rotation_span());
   out.conditioning = engine::condition_clip(settings, input);
   out.resolved = engine::resolve_for_clip(settings, input, out.conditioning.garbage);
+  // As run_job: contacts on the conditioned input, locked after the filter (unchanged clips too).
+  const bool lock = settings.lock_feet && settings.method != engine::Method::none;
+  engine::ClipFeet feet;
+  if (lock) feet = engine::detect_feet(input);
+  auto finish = [&] {
+    if (!lock) return;
+    if (const Status s = engine::lock_feet_in_segments(feet, out.output, out.resolved.segments);
+        !s.ok())
+      throw py::value_error(prefix + "foot lock: " + s.message());
+  };
   if (out.resolved.unchanged) {
     out.output = std::move(input);
+    finish();
     return out;
   }
   out.output = input;
@@ -174,6 +188,7 @@ Outcome run_clip(const FilterSettings& settings, io::Clip input, int threads) {
   });
   for (const Status& s : status)
     if (!s.ok()) throw py::value_error(prefix + s.message());
+  finish();
   return out;
 }
 
@@ -239,7 +254,9 @@ py::object run_filter(const std::string& method, py::handle data, Options option
   Outcome outcome;
   {
     py::gil_scoped_release release;
-    outcome = run_clip(settings, std::move(in.clip), c.threads);
+    FilterSettings run = settings;
+    if (!in.motion) run.lock_feet = false;  // bare arrays have no legs
+    outcome = run_clip(run, std::move(in.clip), c.threads);
   }
   // Before the output is handed over (describe reads its skeleton).
   py::object info = always_info || c.return_info ? py::object(describe(outcome)) : py::none();
@@ -372,7 +389,7 @@ void assign_tensor(io::Clip& clip, std::vector<float>& target, py::handle value,
 #define MOCAP_COMMON_ARGS                                                                         \
   py::arg("translations") = py::none(), py::arg("frame_time") = py::none(),                       \
   py::arg("scalar_first") = true, py::arg("boundary") = d.boundary, py::arg("pops") = py::none(), \
-  py::arg("garbage_joints") = d.garbage_joints, py::arg("split_impossible") = py::none(), \
+  py::arg("garbage_joints") = d.garbage_joints, py::arg("split_impossible") = py::none(),         \
   py::arg("translation_mode") = d.translations, py::arg("shard_joints") = d.shard_joints,         \
   py::arg("shard_frames") = d.shard_frames, py::arg("threads") = run.threads,                     \
   py::arg("return_info") = false
@@ -573,7 +590,7 @@ PYBIND11_MODULE(mocap_clean, m) {
         io::BvhReadResult r;
         {
           py::gil_scoped_release release;
-          r = io::read_bvh(path);
+          r = io::read_bvh(path, /*keep_source_angles=*/true);
         }
         if (r.error) {
           if (r.error->line == 0) throw std::runtime_error(r.error->what());
@@ -583,12 +600,14 @@ PYBIND11_MODULE(mocap_clean, m) {
       },
       py::arg("path"),
       "Reads a BVH file into a Motion (Euler channels to unit quaternions, sign-continuous), as "
-      "`mocap-clean import` does. A malformed file raises ValueError 'path:line: message'; a "
-      "file that cannot be read raises RuntimeError.");
+      "`mocap-clean import` does, keeping the file's own channel values so that write_bvh and "
+      "format_bvh pick the Euler branch nearest them, as `mocap-clean clean` does. A malformed "
+      "file raises ValueError 'path:line: message'; a file that cannot be read raises "
+      "RuntimeError.");
   m.def(
       "parse_bvh",
       [](const std::string& text, const std::string& name) {
-        io::BvhReadResult r = io::parse_bvh(text, name);
+        io::BvhReadResult r = io::parse_bvh(text, name, /*keep_source_angles=*/true);
         if (r.error) throw py::value_error(r.error->what());
         return std::make_shared<io::Clip>(std::move(*r.clip));
       },

@@ -220,13 +220,13 @@ def test_errors_carry_the_cli_messages():
     with pytest.raises(ValueError, match=r"rotations must have shape \(F, J, 4\), got \(20, 2, 3\)"):
         mc.bof(good[..., :3])
     nan = good.copy()
-    nan[3, 1, 2] = np.nan
-    with pytest.raises(ValueError, match=r"^NaN in rotations at frame 3, joint '1'$"):
+    nan[3, 1, 2] = np.nan  # frames count from 1 in messages, as in BVH errors
+    with pytest.raises(ValueError, match=r"^NaN in rotations at frame 4, joint '1'$"):
         mc.bof(nan)
     long = good.copy()
     long[5, 0] *= 2
     with pytest.raises(ValueError,
-                       match=r"^rotation at frame 5, joint '0' is not a unit quaternion \(norm 2\)$"):
+                       match=r"^rotation at frame 6, joint '0' is not a unit quaternion \(norm 2\)$"):
         mc.gaussian(long)
     # The kernel-level functions check values with the same words as the filters (the CLI's).
     for bad in (nan, long):
