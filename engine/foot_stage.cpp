@@ -4,6 +4,7 @@
 
 #include <utility>
 
+#include "engine/filter_settings.hpp"
 #include "kernels/forward_kinematics.hpp"
 
 namespace mocap::engine {
@@ -18,15 +19,9 @@ std::vector<std::uint8_t> translated_joints(const io::Skeleton& skeleton) {
 
 }  // namespace
 
-ClipFeet detect_feet(const io::Clip& clip) {
-  ClipFeet feet;
-  if (!clip.skeleton || clip.frames == 0) return feet;
+std::vector<float> joint_positions(const io::Clip& clip) {
   const io::Skeleton& sk = *clip.skeleton;
-  for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
-    if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
-  if (feet.legs.empty()) return feet;
-  const int J = sk.joint_count();
-  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(J) * 3);
+  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(sk.joint_count()) * 3);
   const std::vector<std::uint8_t> translated = translated_joints(sk);
   ForwardKinematicsJob fk;
   fk.parents = sk.parents;
@@ -34,22 +29,32 @@ ClipFeet detect_feet(const io::Clip& clip) {
   fk.rotations = clip.rotation_view();
   fk.translations = clip.translation_view();
   fk.translated_joints = translated;
-  fk.positions = {positions.data(), clip.frames, J};
-  if (!fk.run().ok()) return {};  // checked clips always pass; nothing to lock otherwise
+  fk.positions = {positions.data(), clip.frames, sk.joint_count()};
+  if (!fk.run().ok()) positions.clear();
+  return positions;
+}
+
+ClipFeet detect_feet(const io::Clip& clip) {
+  ClipFeet feet;
+  if (!clip.skeleton || clip.frames == 0) return feet;
+  const io::Skeleton& sk = *clip.skeleton;
+  for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
+    if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
+  if (feet.legs.empty()) return feet;
+  const std::vector<float> positions = joint_positions(clip);
+  if (positions.empty()) return {};  // checked clips always pass; nothing to lock otherwise
+  const TensorView<const float, 3> global{positions.data(), clip.frames, sk.joint_count()};
   const int N = int(feet.legs.size());
   std::vector<float> ankles(std::size_t(clip.frames) * std::size_t(N) * 3);
   for (int t = 0; t < clip.frames; ++t)
     for (int n = 0; n < N; ++n) {
-      const float* p = fk.positions.at(t, feet.legs[std::size_t(n)].ankle);
+      const float* p = global.at(t, feet.legs[std::size_t(n)].ankle);
       std::copy(p, p + 3, &ankles[(std::size_t(t) * std::size_t(N) + std::size_t(n)) * 3]);
     }
-  std::vector<std::pair<int, Vec3>> sites;
-  for (int j = 0; j < J; ++j)
-    if (sk.end_sites[std::size_t(j)]) sites.emplace_back(j, *sk.end_sites[std::size_t(j)]);
   FootContactJob contacts;
   contacts.feet = {ankles.data(), clip.frames, N};
   contacts.frame_time = clip.frame_time;
-  contacts.body_height = rest_height(sk.parents, sk.offsets, sites);
+  contacts.body_height = body_height(sk);
   contacts.contacts = &feet.contacts;
   if (!contacts.run().ok()) return {};  // a flat skeleton (no height): no feet to find
   return feet;

@@ -21,6 +21,10 @@ struct ClipFeet {
   bool locked = false;
 };
 
+// Every joint's global position [F][J][3] by forward kinematics (the position channels where the
+// skeleton has them, else the offsets); empty when the clip's shapes do not agree.
+std::vector<float> joint_positions(const io::Clip& clip);
+
 // The legs of the clip's skeleton and their contacts in `clip` (global ankle positions by
 // forward kinematics; the body height from the rest pose).
 ClipFeet detect_feet(const io::Clip& clip);

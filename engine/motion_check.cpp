@@ -6,28 +6,13 @@
 #include <cmath>
 
 #include "engine/filter_settings.hpp"
+#include "engine/foot_stage.hpp"
 #include "kernels/forward_kinematics.hpp"
 #include "kernels/median.hpp"
 #include "kernels/position_metrics.hpp"
 
 namespace mocap::engine {
 namespace {
-
-std::vector<float> joint_positions(const io::Clip& clip) {
-  const io::Skeleton& sk = *clip.skeleton;
-  std::vector<std::uint8_t> translated;
-  for (int j = 0; j < clip.joints(); ++j) translated.push_back(sk.has_translation(j) ? 1 : 0);
-  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(clip.joints()) * 3);
-  ForwardKinematicsJob fk;
-  fk.parents = sk.parents;
-  fk.offsets = sk.offsets;
-  fk.rotations = clip.rotation_view();
-  fk.translations = clip.translation_view();
-  fk.translated_joints = translated;
-  fk.positions = {positions.data(), clip.frames, clip.joints()};
-  if (!fk.run().ok()) positions.clear();
-  return positions;
-}
 
 double ratio(double after, double before) {
   if (before > 0) return after / before;
