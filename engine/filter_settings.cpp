@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <optional>
 
 #include "engine/clip_conditioning.hpp"
 #include "engine/pipeline.hpp"
@@ -250,6 +251,19 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
     r.distance_joints = distance_joints_without(garbage);
   }
 
+  // The position channels' noise, estimated once: auto's choice and nlpm's translation width
+  // both read it.
+  std::optional<TranslationNoise> translation_estimate;
+  auto translation_noise = [&] {
+    if (!translation_estimate) {
+      std::vector<std::uint8_t> translated;
+      for (int j = 0; j < clip.joints(); ++j)
+        translated.push_back(clip.skeleton->has_translation(j) ? 1 : 0);
+      translation_estimate =
+          estimate_translation_noise(clip.translation_view(), translated, clip.frame_time);
+    }
+    return *translation_estimate;
+  };
   const Method asked = settings.method;
   const bool automatic_nlpm =
       asked == Method::nlpm && (settings.nlpm.h == 0 || settings.nlpm_range < 0);
@@ -265,11 +279,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
       return r;
     }
     if (asked == Method::automatic) {
-      std::vector<std::uint8_t> translated;
-      for (int j = 0; j < clip.joints(); ++j)
-        translated.push_back(clip.skeleton->has_translation(j) ? 1 : 0);
-      r.translation_noise =
-          estimate_translation_noise(clip.translation_view(), translated, clip.frame_time);
+      r.translation_noise = translation_noise();
       r.noisy_positions = has_noisy_positions(r.translation_noise, body_height(*clip.skeleton));
       r.settings = choose_automatic(settings, noise.sigma, r.noisy_positions, clip.frame_time);
     }
@@ -290,11 +300,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const io::Clip
   }
   r.settings.nlpm.range_sigma = std::max(0.0, r.settings.nlpm_range);
   if (r.settings.method == Method::nlpm && r.settings.nlpm.translation_sigma_t < 0) {
-    std::vector<std::uint8_t> translated;
-    for (int j = 0; j < clip.joints(); ++j)
-      translated.push_back(clip.skeleton->has_translation(j) ? 1 : 0);
-    r.translation_noise =
-        estimate_translation_noise(clip.translation_view(), translated, clip.frame_time);
+    r.translation_noise = translation_noise();
     r.settings.nlpm.translation_sigma_t = automatic_translation_sigma_t(
         r.translation_noise, clip.frame_time, body_height(*clip.skeleton));
   }
