@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/format.hpp"
+#include "kernels/per_joint.hpp"
 #include "kernels/simd/bilateral_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
@@ -34,13 +35,13 @@ Status BilateralParams::validate() const {
   if (!(sigma_t > 0) || !std::isfinite(sigma_t))
     return Status::error(format("sigma_t must be > 0, got %g", sigma_t));
   if (!(sigma_g > 0)) return Status::error(format("sigma_g must be > 0, got %g", sigma_g));
-  if (window < 0) return Status::error(format("window must be >= 0, got %g", window));
+  if (window < 0) return Status::error(format("window must be >= 0, got %d", window));
   if (window == 0 && 3 * sigma_t > kMaxWindow)
     return Status::error(
         format("sigma_t %g gives a window of more than %g frames", sigma_t, kMaxWindow));
   if (window > kMaxWindow)
-    return Status::error(format("window must be <= %g frames, got %g", kMaxWindow, window));
-  if (iterations < 1) return Status::error(format("iterations must be >= 1, got %g", iterations));
+    return Status::error(format("window must be <= %g frames, got %d", kMaxWindow, window));
+  if (iterations < 1) return Status::error(format("iterations must be >= 1, got %d", iterations));
   if (!(sigma_p > 0)) return Status::error(format("sigma_p must be > 0, got %g", sigma_p));
   if (kernel != BilateralKernel::gaussian && kernel != BilateralKernel::paper)
     return Status::error("unknown bilateral kernel");
@@ -113,32 +114,18 @@ Status BilateralJob::validate() const {
 
 Status BilateralJob::run() const {
   if (Status s = validate(); !s) return s;
-  const int frames = io.rotations.frames;
-  const int begin = io.frame_begin, end = io.frame_stop();
-  CurveScratch scratch;
-  if (implementation == Implementation::fast && params.reach() <= simd::kBilateralMaxFastReach) {
+  if (implementation == Implementation::fast && params.reach() <= simd::kBilateralMaxFastReach)
     simd::bilateral_rotations(params, io);
-  } else {
-    std::vector<Quat> curve(frames), out(frames);
-    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-      for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
-      bilateral_filter_rotations(curve, params, out, begin, end, scratch);
-      for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
-    }
-  }
-
-  if (!io.has_translations()) return {};
-  std::vector<Vec3> path(frames), path_out(frames);
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    for (int t = 0; t < frames; ++t) path[t] = load_vec3(io.translations.at(t, j));
-    if (io.translated_joints[j] != 0)
-      bilateral_filter_translations(path, params.sigma_t, params.sigma_p, params.reach(),
-                                    params.iterations, params.boundary, path_out, begin, end,
-                                    scratch);
-    else
-      path_out = path;
-    for (int t = begin; t < end; ++t) store_vec3(path_out[t], io.filtered_translations.at(t, j));
-  }
+  else
+    filter_each_rotation_curve(
+        io, [&](const auto& curve, auto& out, int begin, int end, CurveScratch& scratch) {
+          bilateral_filter_rotations(curve, params, out, begin, end, scratch);
+        });
+  filter_each_translation_path(
+      io, [&](const auto& path, auto& out, int begin, int end, CurveScratch& scratch) {
+        bilateral_filter_translations(path, params.sigma_t, params.sigma_p, params.reach(),
+                                      params.iterations, params.boundary, out, begin, end, scratch);
+      });
   return {};
 }
 

@@ -7,6 +7,7 @@
 #include "core/format.hpp"
 #include "kernels/lee_shin.hpp"
 #include "kernels/linear_filter.hpp"
+#include "kernels/per_joint.hpp"
 #include "kernels/simd/lee_shin_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
@@ -206,30 +207,17 @@ Status KalmanJob::validate() const {
 Status KalmanJob::run() const {
   if (Status s = validate(); !s) return s;
   const std::vector<double> mask = kalman_mask(params.lambda);
-  const int frames = io.rotations.frames;
-  const int begin = io.frame_begin, end = io.frame_stop();
-  CurveScratch scratch;
-  if (implementation == Implementation::fast) {
+  if (implementation == Implementation::fast)
     simd::lee_shin_rotations(mask, 1, params.boundary, io);
-  } else {
-    std::vector<Quat> curve(frames), out(frames);
-    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-      for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
-      linear_filter_rotations(curve, mask, 1, params.boundary, out, begin, end, scratch);
-      for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
-    }
-  }
-
-  if (!io.has_translations()) return {};
-  std::vector<Vec3> path(frames), path_out(frames);
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    for (int t = 0; t < frames; ++t) path[t] = load_vec3(io.translations.at(t, j));
-    if (io.translated_joints[j] != 0)
-      linear_filter_translations(path, mask, 1, params.boundary, path_out, begin, end, scratch);
-    else
-      path_out = path;
-    for (int t = begin; t < end; ++t) store_vec3(path_out[t], io.filtered_translations.at(t, j));
-  }
+  else
+    filter_each_rotation_curve(
+        io, [&](const auto& curve, auto& out, int begin, int end, CurveScratch& scratch) {
+          linear_filter_rotations(curve, mask, 1, params.boundary, out, begin, end, scratch);
+        });
+  filter_each_translation_path(
+      io, [&](const auto& path, auto& out, int begin, int end, CurveScratch& scratch) {
+        linear_filter_translations(path, mask, 1, params.boundary, out, begin, end, scratch);
+      });
   return {};
 }
 

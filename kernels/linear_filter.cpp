@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/format.hpp"
+#include "kernels/per_joint.hpp"
 #include "kernels/simd/lee_shin_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
@@ -20,21 +21,21 @@ Status LinearParams::validate() const {
     case LinearKind::gaussian:
       if (!(sigma_t > 0) || !std::isfinite(sigma_t))
         return Status::error(format("sigma_t must be > 0, got %g", sigma_t));
-      if (window < 0) return Status::error(format("window must be >= 0, got %g", window));
+      if (window < 0) return Status::error(format("window must be >= 0, got %d", window));
       if (window == 0 && 3 * sigma_t > kMaxWindow)
         return Status::error(
             format("sigma_t %g gives a window of more than %g frames", sigma_t, kMaxWindow));
       if (window > kMaxWindow)
-        return Status::error(format("window must be <= %g frames, got %g", kMaxWindow, window));
+        return Status::error(format("window must be <= %g frames, got %d", kMaxWindow, window));
       break;
     case LinearKind::butterworth:
       if (order < 1 || order > 8)
-        return Status::error(format("butterworth order must be in [1, 8], got %g", order));
+        return Status::error(format("butterworth order must be in [1, 8], got %d", order));
       if (!(cutoff > 0) || !std::isfinite(cutoff))
         return Status::error(format("cutoff must be > 0 Hz, got %g", cutoff));
       break;
     case LinearKind::moving_mean:
-      if (passes < 1) return Status::error(format("passes must be >= 1, got %g", passes));
+      if (passes < 1) return Status::error(format("passes must be >= 1, got %d", passes));
       break;
   }
   switch (boundary) {
@@ -91,31 +92,17 @@ Status LinearFilterJob::run() const {
   if (!mask.error.empty()) return Status::error(mask.error);
   const int passes = linear_passes(params);
 
-  const int frames = io.rotations.frames;
-  const int begin = io.frame_begin, end = io.frame_stop();
-  CurveScratch scratch;
-  if (implementation == Implementation::fast) {
+  if (implementation == Implementation::fast)
     simd::lee_shin_rotations(mask.mask, passes, params.boundary, io);
-  } else {
-    std::vector<Quat> curve(frames), out(frames);
-    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-      for (int t = 0; t < frames; ++t) curve[t] = load_quat(io.rotations.at(t, j));
+  else
+    filter_each_rotation_curve(io, [&](const auto& curve, auto& out, int begin, int end,
+                                       CurveScratch& scratch) {
       linear_filter_rotations(curve, mask.mask, passes, params.boundary, out, begin, end, scratch);
-      for (int t = begin; t < end; ++t) store_quat(out[t], io.filtered_rotations.at(t, j));
-    }
-  }
-
-  if (!io.has_translations()) return {};
-  std::vector<Vec3> path(frames), path_out(frames);
-  for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-    for (int t = 0; t < frames; ++t) path[t] = load_vec3(io.translations.at(t, j));
-    if (io.translated_joints[j] != 0)
-      linear_filter_translations(path, mask.mask, passes, params.boundary, path_out, begin, end,
-                                 scratch);
-    else
-      path_out = path;
-    for (int t = begin; t < end; ++t) store_vec3(path_out[t], io.filtered_translations.at(t, j));
-  }
+    });
+  filter_each_translation_path(io, [&](const auto& path, auto& out, int begin, int end,
+                                       CurveScratch& scratch) {
+    linear_filter_translations(path, mask.mask, passes, params.boundary, out, begin, end, scratch);
+  });
   return {};
 }
 

@@ -115,7 +115,7 @@ std::vector<IirSection> butterworth_sections(int order, double cutoff_hz, double
 MaskResult butterworth_mask(int order, double cutoff_hz, double frame_rate_hz) {
   MaskResult result;
   if (order < 1 || order > 8) {
-    result.error = format("butterworth order must be in [1, 8], got %g", order);
+    result.error = format("butterworth order must be in [1, 8], got %d", order);
     return result;
   }
   if (!(frame_rate_hz > 0) || !std::isfinite(frame_rate_hz)) {

@@ -1,11 +1,10 @@
 #pragma once
 // Runs one eval method on one segment of a noisy clip: at a grid point, or with the engine's
 // automatic parameters (what a user gets without giving any):
-//   bof          sigma_g and sigma_t from sigma_hat (automatic_bilateral,
-//   engine/clip/filter_settings.hpp) nlpm         h = kNlpmAutoFactor sigma_hat
-//   (engine/clip/filter_settings.hpp), K = 10, P = 5 gaussian     sigma_t = 1 frame;  butterworth
-//   order 2, 6 Hz;  moving-mean  5 passes kalman       lambda = kalman_auto_lambda(sigma_hat,
-//   frame_time) (kernels/kalman.hpp)
+//   bof          sigma_g and sigma_t from sigma_hat (automatic_bilateral, clip/filter_settings)
+//   nlpm         h = kNlpmAutoFactor sigma_hat (clip/filter_settings), K = 10, P = 5
+//   gaussian     sigma_t = 1 frame;  butterworth  order 2, 6 Hz;  moving-mean  5 passes
+//   kalman       lambda = kalman_auto_lambda(sigma_hat, frame_time) (kernels/kalman.hpp)
 // Translations (the position channels) take each method's translation path, as in the engine:
 // nlpm's Gaussian width comes from the segment's estimated translation noise
 // (automatic_translation_sigma_t) unless the grid gives translation_sigma_t.
