@@ -311,6 +311,11 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
                           {"mpjpe_mm", json_number(r.noisy_scores[c][k].mpjpe_mm())},
                           {"jitter_mm", json_number(r.noisy_scores[c][k].jitter_mm())},
                           {"pops_found", n.pops},
+                          {"samples", r.clips[k].clean.rotations.size() / 4},
+                          {"popped", n.popped},
+                          {"pops_caught", n.pops_caught},
+                          {"pops_left", n.pops_left},
+                          {"false_repairs", n.false_repairs},
                           {"garbage_joints", garbage}});
     }
     cj["noisy_per_clip"] = per_clip;

@@ -14,6 +14,7 @@
 #include "engine/eval/eval_methods.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
+#include "kernels/quaternion.hpp"
 
 namespace mocap::engine::eval {
 namespace {
@@ -155,9 +156,27 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
         noisy.repaired = noisy.rotations;
         const ClipConditioning cond = condition_rotations(
             PopsMode::automatic, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
-            clip.clean.frame_time);
+            clip.clean.frame_time, clip.clean.skeleton->parents);
         noisy.garbage = cond.garbage;
         noisy.pops = cond.pop_count();
+        const std::size_t J = std::size_t(clip.clean.joints());
+        auto moved = [&](const std::vector<float>& rotations, std::size_t sample) {
+          return geodesic(load_quat(rotations.data() + sample * 4),
+                          load_quat(clip.clean.rotations.data() + sample * 4)) > kPoppedAngle;
+        };
+        for (std::size_t sample = 0; sample < noisy.rotations.size() / 4; ++sample)
+          if (moved(noisy.rotations, sample)) {
+            ++noisy.popped;
+            if (moved(noisy.repaired, sample)) ++noisy.pops_left;
+          }
+        for (std::size_t p = 0; p + 1 < cond.pop_samples.size(); p += 2) {
+          const std::size_t sample =
+              std::size_t(cond.pop_samples[p]) * J + std::size_t(cond.pop_samples[p + 1]);
+          if (moved(noisy.rotations, sample))
+            ++noisy.pops_caught;
+          else
+            ++noisy.false_repairs;
+        }
         for (const Segment& s : clip.segments)
           noisy.repaired_sigma_hats.push_back(
               estimate_noise(segment_view(noisy.repaired, clip.clean.joints(), s), noisy.garbage)
