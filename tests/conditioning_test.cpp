@@ -363,9 +363,6 @@ TEST(Conditioning, SplitImpossibleFiltersEachSegmentAsAClipOfItsOwn) {
   }
 }
 
-}  // namespace
-}  // namespace mocap
-
 // auto's bof: lower estimated noise never gives more passes, a wider range kernel or a wider
 // temporal width in seconds, at any frame rate; and at a lower frame rate the width in frames
 // never grows (a frame is longer).
@@ -406,3 +403,6 @@ TEST(Conditioning, AutoSmoothingIsMonotoneInTheNoiseAndTheFrameRate) {
   EXPECT_EQ(engine::choose_automatic(s, 0.01, true, 1.0 / 120).bilateral.iterations,
             engine::choose_automatic(s, 0.2, true, 1.0 / 120).bilateral.iterations);
 }
+
+}  // namespace
+}  // namespace mocap
