@@ -81,6 +81,15 @@ EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config
   c.segments = split_segments(c.clean.frames, c.steps);
   c.geometry = describe_clip(c.clean, config.unit_cm, c.segments);
   c.reference = make_reference(c.clean, c.geometry, c.segments);
+  // The clean clip's own glitches: what the pop stage flags on it (counting only, on a copy).
+  std::vector<float> copy = c.clean.rotations;
+  const ClipConditioning glitches =
+      condition_rotations(PopsMode::detect, {copy.data(), c.clean.frames, c.clean.joints()},
+                          c.clean.frame_time, c.clean.skeleton->parents);
+  c.reference.glitches.assign(copy.size() / 4, 0);
+  for (std::size_t p = 0; p + 1 < glitches.pop_samples.size(); p += 2)
+    c.reference.glitches[std::size_t(glitches.pop_samples[p]) * std::size_t(c.clean.joints()) +
+                         std::size_t(glitches.pop_samples[p + 1])] = 1;
   return c;
 }
 
