@@ -10,6 +10,7 @@
 #include "engine/run/run_summary.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/pop_repair.hpp"
+#include "kernels/pop_skeleton.hpp"
 
 namespace mocap::engine {
 
@@ -21,8 +22,33 @@ std::size_t ClipConditioning::pop_count() const {
   return std::accumulate(pops.begin(), pops.end(), std::size_t(0));
 }
 
-// Frames [begin, end) between steps that no joint can make, over the joints that are not garbage.
-ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time) {
+namespace {
+
+// `out` ([F][J][4], a copy of `in`) with each joint's flagged runs repaired (repair_pops).
+void repair_flagged(RotationView in, std::span<const std::uint8_t> flags, std::span<float> out) {
+  const int F = in.frames, J = in.joints;
+  std::vector<Quat> curve(static_cast<std::size_t>(F)), fixed(static_cast<std::size_t>(F));
+  std::vector<std::uint8_t> joint_flags(static_cast<std::size_t>(F));
+  for (int j = 0; j < J; ++j) {
+    bool any = false;
+    for (int t = 0; t < F; ++t) {
+      joint_flags[std::size_t(t)] = flags[std::size_t(t) * std::size_t(J) + std::size_t(j)];
+      any = any || joint_flags[std::size_t(t)];
+    }
+    if (!any) continue;
+    for (int t = 0; t < F; ++t) curve[std::size_t(t)] = load_quat(in.at(t, j));
+    repair_pops(curve, joint_flags, fixed);
+    for (int t = 0; t < F; ++t)
+      if (joint_flags[std::size_t(t)])
+        store_quat(fixed[std::size_t(t)],
+                   out.data() + (std::size_t(t) * std::size_t(J) + std::size_t(j)) * 4);
+  }
+}
+
+}  // namespace
+
+ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
+                                     std::span<const int> parents) {
   ClipConditioning c;
   const int J = rotations.joints;
   const RotationView view{rotations.data, rotations.frames, J};
@@ -38,8 +64,12 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
   for (int j = 0; j < J; ++j)
     flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
-  c.repaired = mode == PopsMode::repair || (mode == PopsMode::automatic && frame_time > 0 &&
-                                            1.0 / frame_time >= kPopsRepairMinFps);
+  // Below kPopsRepairMinFps the per-joint test alone flags fast limbs; with the skeleton known,
+  // its neighbours rule out some of them (kernels/pop_skeleton.hpp), not yet enough for auto to
+  // repair there (filter_settings.hpp, kPopsRepairMinFps).
+  const bool high_rate = frame_time > 0 && 1.0 / frame_time >= kPopsRepairMinFps;
+  const bool skeleton_test = !high_rate && std::size_t(J) == parents.size();
+  c.repaired = mode == PopsMode::repair || (mode == PopsMode::automatic && high_rate);
   std::vector<int> found(std::size_t(J), 0);
   std::vector<float> repaired;
   std::vector<std::uint8_t> flagged;
@@ -54,8 +84,20 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     job.skip_joints = flipping;
     job.flagged_per_joint = found;
     job.flagged_samples = flagged;
-    job.repair = c.repaired;
+    job.repair = c.repaired && !skeleton_test;
     if (const Status s = job.run(); !s.ok()) throw std::runtime_error("pop repair: " + s.message());
+    if (skeleton_test) {
+      PopSkeletonJob skeleton;
+      skeleton.rotations = {rotations.data + offset, seg.frames(), J};
+      skeleton.parents = parents;
+      skeleton.skip = c.garbage;
+      skeleton.flags = flagged;
+      if (const Status s = skeleton.run(); !s.ok())
+        throw std::runtime_error("pop repair: " + s.message());
+      std::fill(found.begin(), found.end(), 0);
+      for (std::size_t i = 0; i < flagged.size(); ++i) found[i % std::size_t(J)] += flagged[i];
+      if (c.repaired) repair_flagged(skeleton.rotations, flagged, repaired);
+    }
     for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
     for (std::size_t i = 0; i < flagged.size(); ++i)
       if (flagged[i]) {
@@ -71,7 +113,8 @@ ClipConditioning condition_clip(const FilterSettings& settings, Clip& clip) {
   // none is a copy; pops off is the spec's filter alone, at no extra cost (not even the joint
   // classification, which costs about a geodesic per sample).
   if (settings.method == Method::none || settings.pops == PopsMode::off) return {};
-  return condition_rotations(settings.pops, clip.rotation_span(), clip.frame_time);
+  return condition_rotations(settings.pops, clip.rotation_span(), clip.frame_time,
+                             clip.skeleton->parents);
 }
 
 void ConditioningTally::add(const std::string& clip, const Clip& data, const ClipConditioning& c) {

@@ -30,7 +30,11 @@ struct ClipConditioning {
 // on every joint but the flipping ones. The pop test runs between impossible steps (a jump no joint
 // can make, kernels/motion_split.hpp, measured on the joints that are not garbage): the
 // synthetic T-pose frame 0 of CMU conversions is a frame of its own, not a pop.
-ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time);
+// With `parents` (one per joint, -1 for a root; empty: unknown), below kPopsRepairMinFps each
+// flag must also pass the skeleton test (kernels/pop_skeleton.hpp), for counting and for
+// --pops repair; `auto` still only counts there.
+ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
+                                     std::span<const int> parents = {});
 
 // condition_rotations on the clip, but nothing at all for method none (a copy) or pops off (the
 // spec's filter alone: no garbage joints are reported either).

@@ -30,7 +30,9 @@ enum class PopsMode { off, detect, repair, automatic };
 // of the captures themselves); at 30 fps (--frame-step 4) a quadratic no longer predicts fast
 // limbs well enough: it flags 0.17 % of clean samples and loses 7-9 dB at 0.008 rad, while the
 // spec's pops (rate 1 %) gain 7 dB; repairing only clips with over 0.5 % of samples flagged still
-// lost 6 dB (17 dB on a 44-frame clip), so below 60 fps auto only counts.
+// lost 6 dB (17 dB on a 44-frame clip), so below 60 fps auto only counts. With the skeleton test
+// (kernels/pop_skeleton.hpp) 0.085 % of clean samples stay flagged at 30 fps, and repairing them
+// still lost 3.5 dB pooled at 0.008 rad (8.6 dB on 02_01, 4 false repairs): auto still counts.
 inline constexpr double kPopsRepairMinFps = 60;
 std::optional<PopsMode> parse_pops_mode(std::string_view name);
 std::string_view to_string(PopsMode mode);
@@ -55,6 +57,25 @@ inline constexpr double kBofAutoSigmaGFactor = 3.0;
 inline constexpr double kBofAutoSigmaTFactor = 10.0;
 // `params` with its zero sigma_g / sigma_t replaced by the rule above.
 BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, double frame_time);
+
+// auto's bof (choose_automatic, rotation noise only): the number of passes grows with the noise,
+// and the widths shrink as sqrt(passes) so the smoothing of all passes together (n Gaussian
+// passes of width s act like one of width s sqrt(n)) follows the Wiener width sqrt(sigma_hat):
+//   iterations n = clamp(round(sigma_hat / kAutoNoisePerIteration), 1, 5)
+//   sigma_g = kAutoSigmaGFactor sigma_hat / sqrt(n)
+//   sigma_t = max(1, kAutoSigmaTFactor sqrt(sigma_hat) (1 / (120 frame_time))^(1/2) / sqrt(n))
+// Calibrated with `eval --grid bof.iterations=1,2,3,5 --grid bof.sigma_g_factor=2,3,4,5,6,8
+// --grid bof.sigma_t_factor=7,10,15,20,28,40` on ../shared/data/bvh at 120 and 30 fps (README
+// "Automatic parameters"): the best points had sigma_t sqrt(n) / sqrt(sigma_hat) of 20-28 frames
+// at 120 fps and 1.4x that (in units of automatic_bilateral's (fps / 120)^(3/4)) at 30 fps, i.e.
+// a frame-rate exponent of 1/2, not 3/4; sigma_g 4-5 sigma_hat at one pass, 2-3 at 3-5 passes.
+// sigma_g 4 (not 5) at one pass: at 30 fps and 0.008 rad 5 left one clip 0.32 dB below its
+// noisy input, 4 none.
+inline constexpr double kAutoNoisePerIteration = 0.06;
+inline constexpr double kAutoSigmaGFactor = 4.0;
+inline constexpr double kAutoSigmaTFactor = 25.0;
+int automatic_iterations(double sigma_hat);
+BilateralParams automatic_smoothing(double sigma_hat, double frame_time);
 
 // nlpm's translation Gaussian (NlpmParams::translation_sigma_t, kernels/nlpm.hpp), asked for with
 // --translation-sigma-t auto (the default). Translations without measurable noise (below
@@ -132,16 +153,23 @@ std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> 
 ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& clip,
                                   std::span<const std::uint8_t> garbage = {});
 
-// What --method auto picks for a clip of estimated noise sigma_hat (rad): the method, with its
-// parameters left automatic (resolved for the clip's frame time by resolve_for_clip) (README
-// "Automatic parameters"). Measured with `eval` on ../shared/data/bvh: nlpm with its range term is
-// best up to 0.03 rad, bof at 0.12 rad; the switch sits between them (geometric middle).
-//   sigma_hat < kAutoNlpmBelow:  nlpm, h = kNlpmAutoFactor sigma_hat, range = kNlpmAutoRangeFactor
-//                                sigma_hat, K = 10, P = 5
-//   otherwise:                   bof, automatic_bilateral
-//   noisy positions:             bof, sigma_g = kAutoSmoothSigmaGFactor sigma_hat, sigma_t as
-//                                automatic_bilateral, iterations ceil(5 fps / 120) in [2, 5]:
-//                                whatever sigma_hat
+// What --method auto picks for a clip of estimated noise sigma_hat (rad): the method and its
+// parameters (README "Automatic parameters"):
+//   sigma_hat < kAutoCleanBelow:  nlpm, h = max(kNlpmAutoFactor sigma_hat, kAutoNlpmMinH),
+//                                 range = max(kNlpmAutoRangeFactor sigma_hat, kAutoNlpmMinRange)
+//   otherwise:                    bof, automatic_smoothing (iterations and widths from sigma_hat
+//                                 and the frame rate)
+//   noisy positions:              bof, sigma_g = kAutoSmoothSigmaGFactor sigma_hat, sigma_t as
+//                                 automatic_bilateral, iterations ceil(5 fps / 120) in [2, 5]:
+//                                 whatever sigma_hat
+// Measured with `eval` on ../shared/data/bvh (9 CMU clips, gaussian 0.008-0.24 rad, 120 fps and
+// --frame-step 4; grid over bof's iterations 1/2/3/5, sigma_g 2-8 sigma_hat, sigma_t factor
+// 7-40): the best bof has ONE iteration at 0.008 and 0.03 rad, 2-3 at 0.12, 3-5 at 0.24, and
+// beat nlpm with its range term at every level at 30 fps (by up to 0.5 dB) and matched it at
+// 120 fps. Below kAutoCleanBelow (a capture with no noise to speak of: the clean CMU clips measure
+// 0.0011-0.0023 rad at 120 fps) the floored nlpm stays: bof at one iteration left 1.7-1.96x the
+// clean capture's joint-position jitter there against nlpm's 1.26x, whatever its sigma_g floor.
+inline constexpr double kAutoCleanBelow = 0.004;
 // Noisy positions: the position channels' noise (estimate_translation_noise) above
 // kNoisyPositions of the body's height. Such a capture is a noisy solve, and what its viewer sees
 // is jitter: nlpm (and bof at 3 sigma_hat), the rotation-PSNR-best choices, staircase and left
@@ -150,7 +178,6 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 // rotation PSNR (README, "Positions"). At 30 fps five iterations blur (jitter 2.02x, error
 // 12.36 mm); two left 1.40x and 11.07 mm. On rotation-only noise the PSNR-best branches stay. The
 // clean CMU clips measure 0.00004-0.00013 body heights at 120 fps, 0.0006 at most at 30 fps.
-inline constexpr double kAutoNlpmBelow = 0.06;
 inline constexpr double kAutoSmoothSigmaGFactor = 8.0;
 inline constexpr double kNoisyPositions = 0.0015;
 // Floors of auto's nlpm strength and range width. On a capture with no noise added (CMU clips:

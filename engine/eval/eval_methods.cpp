@@ -158,9 +158,13 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
                                             : EvalMethod::bof;
       SegmentJob floored = job;
       floored.automatic_floors = true;
-      // The smooth bof of noisy positions: its sigma_g as chosen, sigma_t automatic.
+      // --translations keep where auto keeps them (run_shard): no joint counts as translated.
+      const std::vector<std::uint8_t> none(job.translated_joints.size(), 0);
+      if (!chosen.filter_translations) floored.translated_joints = none;
+      // bof as chosen: the smooth bof of noisy positions (sigma_t 0: automatic_bilateral's) or
+      // automatic_smoothing's.
       const ParamPoint smooth{{"sigma_g", chosen.bilateral.sigma_g},
-                              {"sigma_t", 0.0},
+                              {"sigma_t", chosen.bilateral.sigma_t},
                               {"iterations", double(chosen.bilateral.iterations)}};
       const bool smooth_bof = as == EvalMethod::bof && chosen.bilateral.sigma_g > 0;
       const Status s = run_method(as, smooth_bof ? &smooth : nullptr, floored, &used);

@@ -181,6 +181,8 @@ ClipGeometry describe_clip(const Clip& clean, double unit_cm,
 void Score::add(const Score& o) {
   rotation_sq += o.rotation_sq;
   rotation_n += o.rotation_n;
+  unglitched_sq += o.unglitched_sq;
+  unglitched_n += o.unglitched_n;
   effector_sq += o.effector_sq;
   effector_n += o.effector_n;
   skate_steps += o.skate_steps;
@@ -202,6 +204,9 @@ double Score::rmse() const {
 }
 double Score::psnr() const {
   return psnr_from_rmse(rmse());
+}
+double Score::unglitched_psnr() const {
+  return psnr_from_rmse(std::sqrt(ratio(unglitched_sq, unglitched_n)));
 }
 double Score::effector_rms_cm() const {
   return std::sqrt(ratio(effector_sq, effector_n));
@@ -330,6 +335,11 @@ Score score_clip(const Clip& clean, const ClipGeometry& geometry, const ClipRefe
         const double d = geodesic(load_quat(result.at(t, j)), load_quat(truth.at(t, j)));
         s.rotation_sq += d * d;
         s.rotation_n += 1;
+        if (reference.glitches.empty() ||
+            !reference.glitches[std::size_t(t) * std::size_t(joints) + std::size_t(j)]) {
+          s.unglitched_sq += d * d;
+          s.unglitched_n += 1;
+        }
         if (geometry.garbage.empty() || !geometry.garbage[std::size_t(j)])
           s.max_error = std::max(s.max_error, d);
       }

@@ -21,6 +21,7 @@
 // clips measure 16.9 to 18.2 units, and 21.4 for 03_01 (uneven terrain: its lowest foot point
 // lies below the floor it mostly walks on); a human hip is 70-110 cm, i.e. 12-20 CMU units, and
 // no plausible cm, m or inch file falls in the range.
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,9 @@ ClipGeometry describe_clip(const Clip& clean, double unit_cm, const std::vector<
 struct Score {
   double rotation_sq = 0;  // rad^2
   double rotation_n = 0;
+  // The same over the samples that are no glitch of the reference (ClipReference::glitches): a
+  // repair of a real glitch of the capture does not count as damage there.
+  double unglitched_sq = 0, unglitched_n = 0;
   double effector_sq = 0;  // cm^2
   double effector_n = 0;
   double skate_steps = 0, foot_steps = 0;
@@ -82,6 +86,7 @@ struct Score {
   void add(const Score& other);
   double rmse() const;             // rad
   double psnr() const;             // dB
+  double unglitched_psnr() const;  // dB, over the samples that are no glitch of the reference
   double effector_rms_cm() const;  // cm
   double skating_percent() const;  // % of foot steps
   double speed_rms() const;        // rad/s
@@ -104,6 +109,9 @@ struct ClipReference {
   std::vector<float> positions;  // [F][J][3] global joint positions of the clean clip
   std::vector<std::vector<ContactInterval>> contacts;  // per foot of geometry.feet
   PositionSums clean_positions;  // the clean clip's own jitter and skating, mm
+  // [F][J], or empty: 1 where the clean clip itself has a glitch, a sample the pop stage flags on
+  // it (one-frame jumps of the capture, eval_run.cpp); Score's "unglitched" sums leave them out.
+  std::vector<std::uint8_t> glitches;
 };
 ClipReference make_reference(const Clip& clean, const ClipGeometry& geometry,
                              const std::vector<Segment>& segments);

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -213,6 +214,7 @@ nlohmann::json json_number(double v) {
 nlohmann::json score_json(const Score& s) {
   return {{"rmse_rad", json_number(s.rmse())},
           {"psnr_db", json_number(s.psnr())},
+          {"psnr_db_unglitched", json_number(s.unglitched_psnr())},
           {"end_effector_rmse_cm", json_number(s.effector_rms_cm())},
           {"foot_skating_percent", json_number(s.skating_percent())},
           {"angular_speed_rms_error", json_number(s.speed_rms())},
@@ -276,6 +278,8 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
                      {"clean_foot_skating_percent", json_number(sk.skating_percent())},
                      {"body_height_units", c.geometry.body_height_units},
                      {"clean_jitter_mm", json_number(c.reference.clean_positions.jitter())},
+                     {"reference_glitches",
+                      std::count(c.reference.glitches.begin(), c.reference.glitches.end(), 1)},
                      {"clean_foot_skating_mm", json_number(c.reference.clean_positions.skating())},
                      {"contact_frames", contact_frames(c.reference.contacts)}});
   }
@@ -311,6 +315,11 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
                           {"mpjpe_mm", json_number(r.noisy_scores[c][k].mpjpe_mm())},
                           {"jitter_mm", json_number(r.noisy_scores[c][k].jitter_mm())},
                           {"pops_found", n.pops},
+                          {"samples", r.clips[k].clean.rotations.size() / 4},
+                          {"popped", n.popped},
+                          {"pops_caught", n.pops_caught},
+                          {"pops_left", n.pops_left},
+                          {"false_repairs", n.false_repairs},
                           {"garbage_joints", garbage}});
     }
     cj["noisy_per_clip"] = per_clip;

@@ -10,6 +10,7 @@
 #include <limits>
 #include <mutex>
 
+#include "core/quaternion.hpp"
 #include "engine/clip/clip_conditioning.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "kernels/noise_estimate.hpp"
@@ -80,6 +81,15 @@ EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config) {
   c.segments = split_segments(c.clean.frames, c.steps);
   c.geometry = describe_clip(c.clean, config.unit_cm, c.segments);
   c.reference = make_reference(c.clean, c.geometry, c.segments);
+  // The clean clip's own glitches: what the pop stage flags on it (counting only, on a copy).
+  std::vector<float> copy = c.clean.rotations;
+  const ClipConditioning glitches =
+      condition_rotations(PopsMode::detect, {copy.data(), c.clean.frames, c.clean.joints()},
+                          c.clean.frame_time, c.clean.skeleton->parents);
+  c.reference.glitches.assign(copy.size() / 4, 0);
+  for (std::size_t p = 0; p + 1 < glitches.pop_samples.size(); p += 2)
+    c.reference.glitches[std::size_t(glitches.pop_samples[p]) * std::size_t(c.clean.joints()) +
+                         std::size_t(glitches.pop_samples[p + 1])] = 1;
   return c;
 }
 
@@ -155,9 +165,27 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
         noisy.repaired = noisy.rotations;
         const ClipConditioning cond = condition_rotations(
             PopsMode::automatic, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
-            clip.clean.frame_time);
+            clip.clean.frame_time, clip.clean.skeleton->parents);
         noisy.garbage = cond.garbage;
         noisy.pops = cond.pop_count();
+        const std::size_t J = std::size_t(clip.clean.joints());
+        auto moved = [&](const std::vector<float>& rotations, std::size_t sample) {
+          return geodesic(load_quat(rotations.data() + sample * 4),
+                          load_quat(clip.clean.rotations.data() + sample * 4)) > kPoppedAngle;
+        };
+        for (std::size_t sample = 0; sample < noisy.rotations.size() / 4; ++sample)
+          if (moved(noisy.rotations, sample)) {
+            ++noisy.popped;
+            if (moved(noisy.repaired, sample)) ++noisy.pops_left;
+          }
+        for (std::size_t p = 0; p + 1 < cond.pop_samples.size(); p += 2) {
+          const std::size_t sample =
+              std::size_t(cond.pop_samples[p]) * J + std::size_t(cond.pop_samples[p + 1]);
+          if (moved(noisy.rotations, sample))
+            ++noisy.pops_caught;
+          else
+            ++noisy.false_repairs;
+        }
         for (const Segment& s : clip.segments)
           noisy.repaired_sigma_hats.push_back(
               estimate_noise(segment_view(noisy.repaired, clip.clean.joints(), s), noisy.garbage)

@@ -49,7 +49,12 @@ struct NoisyClip {
   std::vector<double> repaired_sigma_hats;
   std::vector<std::uint8_t> garbage;
   std::size_t pops = 0;  // samples the repair replaced
+  // Against the clean clip: samples the noise moved by more than kPoppedAngle (the spec's pops
+  // are 0.3-1 rad), how many of them the pop stage flagged, how many flags fell on other samples
+  // (false repairs), and how many popped samples stay that far from the clean after the stage.
+  std::size_t popped = 0, pops_caught = 0, false_repairs = 0, pops_left = 0;
 };
+inline constexpr double kPoppedAngle = 0.25;
 
 struct TaskResult {
   Score score;

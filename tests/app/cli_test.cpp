@@ -556,7 +556,11 @@ TEST(Cli, TheReadmeAgreesWithTheCode) {
                      engine::kBofAutoSigmaTFactor));
   expect(fmt::format("`h = {:g} sigma_hat`", engine::kNlpmAutoFactor));
   expect(fmt::format("range width of `{:g} sigma_hat`", engine::kNlpmAutoRangeFactor));
-  expect(fmt::format("`sigma_hat` < {:g} rad", engine::kAutoNlpmBelow));
+  expect(fmt::format("`sigma_hat` < {:g} rad", engine::kAutoCleanBelow));
+  expect(fmt::format("`n = clamp(round(sigma_hat / {:g}), 1, 5)`", engine::kAutoNoisePerIteration));
+  expect(fmt::format("`sigma_g = {:g} sigma_hat / sqrt(n)`", engine::kAutoSigmaGFactor));
+  expect(fmt::format("`sigma_t = max(1, {:g} sqrt(sigma_hat) (fps / 120)^0.5 / sqrt(n))`",
+                     engine::kAutoSigmaTFactor));
   // bof's sigma_t does scale with the frame rate as the README says: 30 fps against 120 fps.
   BilateralParams p;
   p.sigma_g = 0;

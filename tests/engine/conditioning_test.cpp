@@ -173,19 +173,26 @@ TEST(Conditioning, GarbageJointsAreKeptAsTheyCameAndLeftOutOfNlpmsDistance) {
 TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   FilterSettings s;
   s.method = Method::automatic;
-  const FilterSettings low = engine::choose_automatic(s, 0.01);
+  // No noise to speak of (a clean capture): the floored nlpm with its range term.
+  const FilterSettings low = engine::choose_automatic(s, 0.002);
   EXPECT_EQ(low.method, Method::nlpm);
   EXPECT_LT(low.nlpm_range, 0);  // automatic: resolved from sigma_hat
-  const FilterSettings high = engine::choose_automatic(s, 0.1);
+  // Measurable noise: bof, one pass at light noise, more at heavy noise.
+  const FilterSettings light = engine::choose_automatic(s, 0.01);
+  EXPECT_EQ(light.method, Method::bof);
+  EXPECT_EQ(light.bilateral.iterations, 1);
+  EXPECT_NEAR(light.bilateral.sigma_g, engine::kAutoSigmaGFactor * 0.01, 1e-12);
+  const FilterSettings high = engine::choose_automatic(s, 0.24);
   EXPECT_EQ(high.method, Method::bof);
-  EXPECT_EQ(high.bilateral.sigma_g, 0);
+  EXPECT_EQ(high.bilateral.iterations, 4);
+  EXPECT_GT(high.bilateral.sigma_t, light.bilateral.sigma_t);
 
   Clip clip = test_clip(1, nullptr);
   s.pops = PopsMode::automatic;
   const ClipConditioning c = engine::condition_clip(s, clip);
   const auto resolved = engine::resolve_for_clip(s, clip, c.garbage);
   ASSERT_FALSE(resolved.unchanged);
-  EXPECT_EQ(resolved.settings.method, Method::nlpm);  // jitter of 0.003 rad: low noise
+  EXPECT_EQ(resolved.settings.method, Method::nlpm);  // jitter of 0.003 rad: a clean capture
   // At this light a noise auto's floors decide (engine/clip/filter_settings.hpp).
   EXPECT_NEAR(resolved.settings.nlpm.h,
               std::max(engine::kNlpmAutoFactor * resolved.noise_sigma, engine::kAutoNlpmMinH),
@@ -354,6 +361,47 @@ TEST(Conditioning, SplitImpossibleFiltersEachSegmentAsAClipOfItsOwn) {
               method == Method::bof ? 1e-4 : 1e-2)
         << to_string(method);
   }
+}
+
+// auto's bof: lower estimated noise never gives more passes, a wider range kernel or a wider
+// temporal width in seconds, at any frame rate; and at a lower frame rate the width in frames
+// never grows (a frame is longer).
+TEST(Conditioning, AutoSmoothingIsMonotoneInTheNoiseAndTheFrameRate) {
+  FilterSettings s;
+  s.method = Method::automatic;
+  for (double fps : {24.0, 30.0, 60.0, 120.0, 240.0}) {
+    const double dt = 1.0 / fps;
+    FilterSettings previous;
+    bool first = true;
+    for (double sigma = engine::kAutoCleanBelow; sigma <= 0.5; sigma *= 1.05) {
+      const FilterSettings c = engine::choose_automatic(s, sigma, false, dt);
+      ASSERT_EQ(c.method, Method::bof) << sigma;
+      EXPECT_GE(c.bilateral.iterations, 1);
+      EXPECT_LE(c.bilateral.iterations, 5);
+      if (!first) {
+        EXPECT_LE(previous.bilateral.iterations, c.bilateral.iterations) << sigma << " " << fps;
+        // All passes together: width sigma_t sqrt(n) and range sigma_g sqrt(n) never shrink.
+        const auto total = [](const BilateralParams& p, double v) {
+          return v * std::sqrt(double(p.iterations));
+        };
+        EXPECT_LE(total(previous.bilateral, previous.bilateral.sigma_t),
+                  total(c.bilateral, c.bilateral.sigma_t) + 1e-12)
+            << sigma << " " << fps;
+        EXPECT_LE(total(previous.bilateral, previous.bilateral.sigma_g),
+                  total(c.bilateral, c.bilateral.sigma_g) + 1e-12)
+            << sigma << " " << fps;
+      }
+      const FilterSettings slower = engine::choose_automatic(s, sigma, false, 2 * dt);
+      EXPECT_LE(slower.bilateral.sigma_t, c.bilateral.sigma_t) << sigma << " " << fps;
+      EXPECT_GE(slower.bilateral.sigma_t * 2 * dt, c.bilateral.sigma_t * dt - 1e-12)
+          << sigma << " " << fps;
+      previous = c;
+      first = false;
+    }
+  }
+  // The noisy-positions branch ignores sigma_hat's size for its passes.
+  EXPECT_EQ(engine::choose_automatic(s, 0.01, true, 1.0 / 120).bilateral.iterations,
+            engine::choose_automatic(s, 0.2, true, 1.0 / 120).bilateral.iterations);
 }
 
 }  // namespace

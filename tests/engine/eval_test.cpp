@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/quaternion.hpp"
 #include "engine/clip/filter_settings.hpp"
 #include "engine/eval/eval_metrics.hpp"
 #include "engine/eval/eval_run.hpp"
@@ -191,6 +192,31 @@ TEST(EvalCommand, PopStageRowsRunAfterThePopRepairAndBeatThePlainFiltersOnPops) 
   EXPECT_DOUBLE_EQ(automatic_psnr(2, 1), automatic_psnr(0, 1));
   const double noisy_pops = report["conditions"][0]["noisy"]["psnr_db"];
   EXPECT_GT(automatic_psnr(4, 0), noisy_pops + 3.0);
+}
+
+// A one-frame glitch of the capture itself: the pop stage repairs it and the score, taking the
+// capture as truth, counts the repair as error; psnr_db_unglitched leaves the glitch out.
+TEST(EvalCommand, TheUnglitchedScoreLeavesTheReferencesOwnGlitchesOut) {
+  test::TempDir in("eval-glitch-in"), out("eval-glitch-out");
+  Clip clip = engine::make_demo_library()[0].clip;
+  clip.frames = 150;
+  clip.rotations.resize(std::size_t(clip.frames) * clip.joints() * 4);
+  clip.translations.resize(std::size_t(clip.frames) * clip.joints() * 3);
+  ASSERT_GE(clip.frame_time, 0);
+  ASSERT_LE(clip.frame_time, 1.0 / 60);  // where auto repairs
+  const int joint = clip.joints() / 2;
+  float* q = clip.rotation_span().at(75, joint);
+  store_quat(load_quat(q) * exp(Vec3{0.6, 0, 0}), q);
+  std::string error;
+  ASSERT_TRUE(io::write_bvh(clip, in.path() / "glitch.bvh", &error)) << error;
+  const auto r = test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
+                               "' --noise gaussian:0.008 --methods auto --no-plots");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(test::read_text(out / "report.json"));
+  EXPECT_GE(report["clips"][0]["reference_glitches"].get<int>(), 1);
+  const auto& automatic = report["methods"][0]["automatic"]["results"][0];
+  EXPECT_GT(automatic["psnr_db_unglitched"].get<double>(), automatic["psnr_db"].get<double>() + 1)
+      << automatic.dump();
 }
 
 TEST(EvalCommand, UsageErrorsSayWhy) {

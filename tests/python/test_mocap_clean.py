@@ -330,10 +330,12 @@ def test_pops_noise_and_classification():
     sigma, moving_joints = mc.estimate_noise(n1)
     assert moving_joints == 4 and 0.025 < sigma < 0.035
     assert mc.estimate_noise(still) == (0.0, 0)
-    # auto says what it chose, for this noise level nlpm (below 0.06 rad).
+    # auto says what it chose, for this noise level bof with one pass (engine/clip/filter_settings.hpp,
+    # automatic_smoothing: one pass up to 0.09 rad, sigma_g = 4 sigma_hat).
     result, info = mc.auto(n1)
-    assert info["method"] == "nlpm" and info["noise_sigma"] == pytest.approx(sigma)
-    assert info["parameters"]["h"] == pytest.approx(1.2 * sigma)
+    assert info["method"] == "bof" and info["noise_sigma"] == pytest.approx(sigma)
+    assert info["parameters"]["iterations"] == 1
+    assert info["parameters"]["sigma_g"] == pytest.approx(4 * sigma)
     assert mc.psnr(result, moving) > mc.psnr(n1, moving)
 
 

@@ -1,0 +1,83 @@
+#include "kernels/pop_skeleton.hpp"
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "core/quaternion.hpp"
+
+namespace mocap {
+
+Status PopSkeletonJob::validate() const {
+  const std::size_t J = std::size_t(rotations.joints), F = std::size_t(rotations.frames);
+  if (rotations.frames < 0 || rotations.joints < 0 || (F * J > 0 && !rotations.data))
+    return Status::error("pop skeleton test: no rotations");
+  if (parents.size() != J)
+    return Status::error("pop skeleton test: parents must have one entry per joint (" +
+                         std::to_string(J) + "), got " + std::to_string(parents.size()));
+  for (std::size_t j = 0; j < J; ++j)
+    if (parents[j] < -1 || parents[j] >= int(J) || parents[j] == int(j))
+      return Status::error("pop skeleton test: joint " + std::to_string(j) + " has parent " +
+                           std::to_string(parents[j]) + ", not a joint of the clip");
+  if (!skip.empty() && skip.size() != J)
+    return Status::error("pop skeleton test: skip must have one entry per joint (" +
+                         std::to_string(J) + "), got " + std::to_string(skip.size()));
+  if (flags.size() != F * J)
+    return Status::error("pop skeleton test: flags must have one entry per sample (" +
+                         std::to_string(F * J) + "), got " + std::to_string(flags.size()));
+  if (!(coherence > 0)) return Status::error("pop skeleton test: coherence must be > 0");
+  if (reach < 0) return Status::error("pop skeleton test: reach must be >= 0 frames");
+  return params.validate();
+}
+
+Status PopSkeletonJob::run() const {
+  if (Status s = validate(); !s) return s;
+  const int F = rotations.frames, J = rotations.joints;
+  if (unflagged) *unflagged = 0;
+  auto flagged = [&](int t, int j) { return flags[std::size_t(t) * std::size_t(J) + j] != 0; };
+  auto usable = [&](int k) { return k >= 0 && (skip.empty() || !skip[std::size_t(k)]); };
+  std::vector<std::vector<int>> neighbours(static_cast<std::size_t>(J));
+  for (int j = 0; j < J; ++j)
+    if (usable(j) && usable(parents[std::size_t(j)])) {
+      neighbours[std::size_t(j)].push_back(parents[std::size_t(j)]);
+      neighbours[std::size_t(parents[std::size_t(j)])].push_back(j);
+    }
+  // Residuals only of the joints the test reads: those with a flag and their neighbours.
+  std::vector<std::uint8_t> needed(static_cast<std::size_t>(J), 0),
+      any(static_cast<std::size_t>(J), 0);
+  for (int t = 0; t < F; ++t)
+    for (int j = 0; j < J; ++j)
+      if (flagged(t, j)) any[std::size_t(j)] = 1;
+  for (int j = 0; j < J; ++j)
+    if (any[std::size_t(j)] && !neighbours[std::size_t(j)].empty()) {
+      needed[std::size_t(j)] = 1;
+      for (int k : neighbours[std::size_t(j)]) needed[std::size_t(k)] = 1;
+    }
+  std::vector<std::vector<double>> residual(static_cast<std::size_t>(J));
+  std::vector<Quat> curve(static_cast<std::size_t>(F));
+  std::vector<double> spreads(static_cast<std::size_t>(F)), fit_errors(static_cast<std::size_t>(F));
+  for (int j = 0; j < J; ++j) {
+    if (!needed[std::size_t(j)] || F < kPopRepairMinFrames) continue;
+    for (int t = 0; t < F; ++t) curve[std::size_t(t)] = load_quat(rotations.at(t, j));
+    residual[std::size_t(j)].resize(std::size_t(F));
+    pop_residuals(curve, params, residual[std::size_t(j)], spreads, fit_errors);
+  }
+  // Decide on the input flags (a neighbour's flag counts as it came), then clear.
+  std::vector<std::size_t> clear;
+  for (int t = 0; t < F; ++t)
+    for (int j = 0; j < J; ++j) {
+      if (!flagged(t, j) || residual[std::size_t(j)].empty()) continue;
+      const double own = residual[std::size_t(j)][std::size_t(t)];
+      bool motion = false;
+      for (int k : neighbours[std::size_t(j)])
+        for (int u = std::max(0, t - reach); u <= std::min(F - 1, t + reach) && !motion; ++u)
+          motion = (flagged_neighbours_count || !flagged(u, k)) &&
+                   residual[std::size_t(k)][std::size_t(u)] >= coherence * own;
+      if (motion) clear.push_back(std::size_t(t) * std::size_t(J) + std::size_t(j));
+    }
+  for (std::size_t i : clear) flags[i] = 0;
+  if (unflagged) *unflagged = int(clear.size());
+  return {};
+}
+
+}  // namespace mocap

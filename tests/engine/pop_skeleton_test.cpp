@@ -1,0 +1,121 @@
+// Tests of the skeleton test of pop flags (kernels/pop_skeleton.hpp) and of the pop stage with a
+// skeleton below 60 fps (engine/clip/clip_conditioning.hpp): at 30 fps a single-joint pop is still
+// found and repaired, while a one-frame excursion of a whole limb (a fast kick seen at 30 fps),
+// which the per-joint test alone takes for pops, is left alone.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "core/quaternion.hpp"
+#include "engine/clip/clip_conditioning.hpp"
+#include "kernels/pop_skeleton.hpp"
+#include "tests/test_support.hpp"
+
+namespace mocap {
+namespace {
+
+constexpr int kFrames = 90, kJoints = 5, kAt = 45;
+// Hips -> thigh -> shin -> foot -> toe.
+const std::vector<int> kParents{-1, 0, 1, 2, 3};
+constexpr double kFrameTime = 1.0 / 30;
+
+// Each joint turns smoothly about its own axis (a walk-like swing, up to 0.5 rad); `excursion`
+// adds a one-frame turn of `angle` rad at frame kAt to the joints it marks, about their swing
+// axes (the whole limb moves together) or, for a pop, about `pop_axis`.
+test::Motion limb(std::vector<int> excursion, double angle, Vec3 pop_axis = {0, 0, 0}) {
+  test::Motion m{kFrames, kJoints, std::vector<float>(std::size_t(kFrames) * kJoints * 4)};
+  std::mt19937_64 rng(7);
+  for (int j = 0; j < kJoints; ++j) {
+    const Quat base = test::random_rotation(rng);
+    const Vec3 axis = log(test::random_rotation(rng));
+    const Vec3 n = (1 / norm(axis)) * axis;
+    const double phase = 0.7 * j;
+    for (int t = 0; t < kFrames; ++t) {
+      Quat q = base * exp((0.5 * std::sin(0.2 * t + phase)) * n);
+      if (t == kAt && excursion[std::size_t(j)])
+        q = q * exp(angle * (norm(pop_axis) > 0 ? pop_axis : n));
+      store_quat(q, m.span().at(t, j));
+    }
+  }
+  make_hemisphere_continuous(m.span());
+  return m;
+}
+
+int flagged_at(const engine::ClipConditioning& c, int frame, int joint) {
+  int n = 0;
+  for (std::size_t p = 0; p + 1 < c.pop_samples.size(); p += 2)
+    n += c.pop_samples[p] == frame && c.pop_samples[p + 1] == joint;
+  return n;
+}
+
+TEST(PopSkeleton, ASingleJointPopAt30FpsIsRepaired) {
+  const test::Motion clean = limb({0, 0, 0, 0, 0}, 0);
+  test::Motion popped = limb({0, 0, 1, 0, 0}, 0.6, {0.6, 0.0, 0.8});
+  const engine::ClipConditioning c =
+      engine::condition_rotations(engine::PopsMode::repair, popped.span(), kFrameTime, kParents);
+  EXPECT_EQ(c.pop_count(), 1u);
+  EXPECT_EQ(flagged_at(c, kAt, 2), 1);
+  // Repaired: back near the clean motion (the slerp between its neighbours), not 0.6 rad away.
+  EXPECT_LT(geodesic(popped.at(kAt, 2), clean.at(kAt, 2)), 0.05);
+  // And auto still only counts below 60 fps: the pop is found, the clip is left as it came.
+  test::Motion counted = limb({0, 0, 1, 0, 0}, 0.6, {0.6, 0.0, 0.8});
+  const engine::ClipConditioning a = engine::condition_rotations(
+      engine::PopsMode::automatic, counted.span(), kFrameTime, kParents);
+  EXPECT_FALSE(a.repaired);
+  EXPECT_EQ(flagged_at(a, kAt, 2), 1);
+  EXPECT_GT(geodesic(counted.at(kAt, 2), clean.at(kAt, 2)), 0.5);
+}
+
+TEST(PopSkeleton, ACoherentOneFrameLimbSwingAt30FpsIsLeftAlone) {
+  const test::Motion swing = limb({0, 1, 1, 1, 1}, 0.6);
+  // The per-joint test alone takes the swing for pops on every joint of the limb...
+  test::Motion alone = swing;
+  const engine::ClipConditioning without =
+      engine::condition_rotations(engine::PopsMode::repair, alone.span(), kFrameTime);
+  for (int j = 1; j < kJoints; ++j) EXPECT_EQ(flagged_at(without, kAt, j), 1) << j;
+  // ...the skeleton sees the whole limb move and flags nothing: the clip comes out bit for bit.
+  test::Motion with = swing;
+  const engine::ClipConditioning c =
+      engine::condition_rotations(engine::PopsMode::repair, with.span(), kFrameTime, kParents);
+  EXPECT_EQ(c.pop_count(), 0u);
+  EXPECT_EQ(with.rotations, swing.rotations);
+}
+
+TEST(PopSkeleton, AtHighFrameRatesTheSkeletonIsNotAsked) {
+  // 120 fps: the per-joint test as it was (README "Pops"), parents or not.
+  test::Motion a = limb({0, 1, 1, 1, 1}, 0.6), b = a;
+  const auto with =
+      engine::condition_rotations(engine::PopsMode::detect, a.span(), 1.0 / 120, kParents);
+  const auto without = engine::condition_rotations(engine::PopsMode::detect, b.span(), 1.0 / 120);
+  EXPECT_EQ(with.pop_samples, without.pop_samples);
+}
+
+TEST(PopSkeleton, ValidateExplains) {
+  test::Motion m = limb({0, 0, 0, 0, 0}, 0);
+  std::vector<std::uint8_t> flags(std::size_t(kFrames) * kJoints, 0);
+  PopSkeletonJob job;
+  job.rotations = m.view();
+  job.flags = flags;
+  const std::vector<int> short_parents{-1, 0};
+  job.parents = short_parents;
+  EXPECT_NE(job.validate().message().find("parents must have one entry per joint"),
+            std::string::npos);
+  const std::vector<int> cyclic{-1, 1, 1, 2, 3};
+  job.parents = cyclic;
+  EXPECT_NE(job.validate().message().find("joint 1 has parent 1"), std::string::npos);
+  job.parents = kParents;
+  EXPECT_TRUE(job.validate().ok());
+  std::vector<std::uint8_t> few(3);
+  job.flags = few;
+  EXPECT_NE(job.validate().message().find("flags must have one entry per sample"),
+            std::string::npos);
+  job.flags = flags;
+  job.coherence = 0;
+  EXPECT_FALSE(job.validate().ok());
+}
+
+}  // namespace
+}  // namespace mocap
