@@ -29,6 +29,13 @@ void append_list(nlohmann::json& into, const nlohmann::json& from, const char* k
 }  // namespace
 
 void merge_tallies(nlohmann::json& into, const nlohmann::json& from) {
+  // Seconds of work per stage (engine/run/stage_times.hpp) add up over the ranks.
+  if (from.contains("stages") && from["stages"].is_object()) {
+    nlohmann::json& stages = into["stages"];
+    if (!stages.is_object()) stages = nlohmann::json::object();
+    for (const auto& [stage, seconds] : from["stages"].items())
+      if (seconds.is_number()) stages[stage] = stages.value(stage, 0.0) + seconds.get<double>();
+  }
   if (from.contains("pops") && from["pops"].contains("samples")) {
     nlohmann::json& pops = into["pops"];
     if (!pops.contains("samples"))

@@ -5,8 +5,8 @@
 
 namespace mocap::engine {
 
-// Adds `from`'s "pops", "garbage_joints" and "automatic" fields (ConditioningTally::write_to,
-// AutomaticTally::write_to) into `into`'s; every other field of `into` is kept as it is (the
+// Adds `from`'s "pops", "garbage_joints", "automatic" and "stages" fields (ConditioningTally::write_to,
+// AutomaticTally::write_to, StageTimes) into `into`'s; every other field of `into` is kept as it is (the
 // ranks share the command, parameters and output).
 void merge_tallies(nlohmann::json& into, const nlohmann::json& from);
 

@@ -13,6 +13,7 @@
 #include "engine/run/automatic_tally.hpp"
 #include "engine/run/pipeline.hpp"
 #include "engine/run/progress.hpp"
+#include "engine/run/stage_times.hpp"
 
 namespace mocap::engine {
 namespace {
@@ -67,36 +68,50 @@ RunSummary run_job(const Job& job) {
   MotionTally motion;
   FeetTally feet;
   feet.lock = settings.lock_feet && settings.method != Method::none;
+  StageTimes times;
+  using Timed = StageTimes::Scope;
   PipelineStages stages;
   stages.count = selection.size();
   stages.read = [&](WorkItem& item) {
     const std::size_t index = selection[item.index];
     item.name = job.source->name(index);
     std::string error;
+    const Timed timed(times, StageTimes::read);
     std::optional<Clip> clip = job.source->read(index, &error);
     if (!clip) return item.fail(error);
     item.input = std::move(*clip);
   };
   stages.split = [&](WorkItem& item) -> std::vector<Shard> {
-    if (std::string why = check_clip_values(item.input); !why.empty()) {
-      item.fail(why);
-      return {};
+    {
+      const Timed timed(times, StageTimes::check);
+      if (std::string why = check_clip_values(item.input); !why.empty()) {
+        item.fail(why);
+        return {};
+      }
+      // Filters expect each joint's curve on one hemisphere (spec "Sign continuity"); a library
+      // written by another tool may not be. Same rotations, so harmless for `none`.
+      make_hemisphere_continuous(item.input.rotation_span());
     }
-    // Filters expect each joint's curve on one hemisphere (spec "Sign continuity"); a library
-    // written by another tool may not be. Same rotations, so harmless for `none`.
-    make_hemisphere_continuous(item.input.rotation_span());
     MotionMeasure before;
-    if (measure) before = measure_motion(item.input);
-    ClipConditioning conditioning = condition_clip(settings, item.input);
-    ClipState state{resolve_for_clip(settings, item.input, conditioning.garbage),
-                    {},
-                    std::move(conditioning),
-                    std::move(before),
-                    {},
-                    {}};
+    if (measure) {
+      const Timed timed(times, StageTimes::metrics);
+      before = measure_motion(item.input);
+    }
+    ClipConditioning conditioning;
+    {
+      const Timed timed(times, StageTimes::condition);
+      conditioning = condition_clip(settings, item.input);
+    }
+    ResolvedSettings resolved;
+    {
+      const Timed timed(times, StageTimes::resolve);
+      resolved = resolve_for_clip(settings, item.input, conditioning.garbage);
+    }
+    ClipState state{std::move(resolved), {}, std::move(conditioning), std::move(before), {}, {}};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
     if (feet.lock) {
+      const Timed timed(times, StageTimes::contacts);
       state.feet = detect_feet(item.input);
       ClipProvenance& p = item.input.provenance;
       p.feet = settings.method != Method::none;
@@ -116,6 +131,7 @@ RunSummary run_job(const Job& job) {
   };
   stages.process = [&](WorkItem& item, const Shard& shard) {
     const auto& state = std::any_cast<const ClipState&>(item.context);
+    const Timed timed(times, StageTimes::filter);
     if (const Status s = run_shard(state.resolved, item.input, item.output, shard); !s.ok())
       item.fail(s.message());
   };
@@ -123,12 +139,14 @@ RunSummary run_job(const Job& job) {
     item.input = {};  // free the input early: only the output goes on
     if (feet.lock) {
       auto& state = std::any_cast<ClipState&>(item.context);
+      const Timed timed(times, StageTimes::lock);
       if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments);
           !s.ok())
         return item.fail("foot lock: " + s.message());
     }
     if (measure) {
       auto& state = std::any_cast<ClipState&>(item.context);
+      const Timed timed(times, StageTimes::metrics);
       state.after = measure_motion(item.output, &state.before);
     }
     if (job.transform) {
@@ -136,6 +154,7 @@ RunSummary run_job(const Job& job) {
         return item.fail(s.message());
     }
     std::string error;
+    const Timed timed(times, StageTimes::prepare);
     if (!job.sink->prepare(item.output, std::any_cast<ClipState&>(item.context).prepared, &error))
       item.fail(error);
   };
@@ -144,6 +163,7 @@ RunSummary run_job(const Job& job) {
     if (item.error.empty()) {
       std::string error;
       auto& state = std::any_cast<ClipState&>(item.context);
+      const Timed timed(times, StageTimes::write);
       if (!job.sink->write(job.source->clip_path(index), job.source->relative_path(index),
                            state.prepared, &error))
         item.fail(error);
@@ -173,6 +193,7 @@ RunSummary run_job(const Job& job) {
   }
   automatic.write_to(summary.extra);
   motion.write_to(summary.extra);
+  summary.extra["stages"] = times.to_json();
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

@@ -48,6 +48,15 @@ TEST(SummaryMerge, SumsCountsJoinsListsAndWidensTheNoiseRange) {
   EXPECT_EQ(total["method"], "auto");
 }
 
+TEST(SummaryMerge, StageSecondsAddUpOverTheRanks) {
+  json total = {{"stages", {{"read", 1.5}, {"filter", 2.0}}}};
+  merge_tallies(total, {{"stages", {{"read", 0.5}, {"filter", 1.0}, {"write", 0.25}}}});
+  merge_tallies(total, json::object());  // a rank that ran nothing
+  EXPECT_DOUBLE_EQ(total["stages"]["read"].get<double>(), 2.0);
+  EXPECT_DOUBLE_EQ(total["stages"]["filter"].get<double>(), 3.0);
+  EXPECT_DOUBLE_EQ(total["stages"]["write"].get<double>(), 0.25);
+}
+
 TEST(SummaryMerge, ARankWithoutClipsTakesTheOthersTallies) {
   json total = {{"method", "auto"}};  // rank 0 had no clips of its own
   merge_tallies(total, rank_summary(2, "RightHand", "b", 0.03));
