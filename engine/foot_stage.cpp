@@ -134,7 +134,16 @@ Status lock_feet_in_segments(ClipFeet& feet, io::Clip& filtered,
                      std::vector<float>(filtered.translations.begin() + std::ptrdiff_t(begin * 3),
                                         filtered.translations.begin() + std::ptrdiff_t(end * 3))}});
   }
-  const Status status = lock_feet(feet, filtered);
+  // The knee's speed limit: the filtered clip's peak over the steps inside its segments (a
+  // step into CMU's T-pose frame is not motion).
+  std::vector<std::uint8_t> counted(std::size_t(filtered.frames), segments.empty() ? 1 : 0);
+  for (const Segment& s : segments)
+    for (int t = s.begin + 1; t < s.end; ++t) counted[std::size_t(t)] = 1;
+  FootLockParams params;
+  params.max_knee_speed =
+      peak_knee_speed(filtered.rotation_view(), feet.legs, filtered.frame_time, counted);
+  if (params.max_knee_speed == 0) params.max_knee_speed = -1;  // knees that never turn: no limit
+  const Status status = lock_feet(feet, filtered, params);
   for (const auto& [s, values] : kept) {
     const std::size_t begin = std::size_t(s.begin) * joints;
     std::copy(values.first.begin(), values.first.end(),

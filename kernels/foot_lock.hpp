@@ -32,6 +32,18 @@
 //   Reach. Where |T - a| > L for a planted leg, the root (the leg's top ancestor, when it carries
 //   a translation) is lowered along Y just enough for the hip to reach: a_y' = T_y +
 //   sqrt(L^2 - h^2), h the horizontal hip-target distance; by the largest drop of its legs.
+//   Knee speed. Near a straight leg the knee angle per unit of hip-target distance grows as
+//   1 / sin(theta), so a pin the filtered ankle moves away from (at a contact's end the filtered
+//   ankle already leaves: the filter spreads the lift-off in time) asks the knee to catch up
+//   with the filter in a frame or two: a pop (measured: up to 1.7x the input's peak knee speed).
+//   So the change the IK makes to the knee's interior angle, Delta(t) = theta_1(t) -
+//   theta_f(t), is kept such that the locked knee turns no faster than a limit W (the filtered
+//   motion's own peak knee speed by default, peak_knee_speed): |theta_l(t) - theta_l(t-1)| <= W
+//   frame_time with theta_l = theta_f + Delta, and Delta must be back to 0 on the frame after each
+//   run of IK frames (a backward pass gives the band of Delta that can still get there; the forward
+//   pass clamps the wanted Delta into it and into the step from the previous frame). Where the
+//   limit bites the ankle misses its target along the hip-target line by what the knee could not
+//   do.
 // Frames with D = 0 on every leg of a root are left bit-identical, and so is every joint that is
 // not a hip, knee or ankle of a leg (rotations) or a lowered root (translation).
 #include <cstdint>
@@ -48,9 +60,18 @@ namespace mocap {
 struct FootLockParams {
   double blend_time = 0.1;   // seconds of fade in before and fade out after each contact
   double max_reach = 0.995;  // fraction of the straight leg the IK may stretch to
+  // The knee's speed limit, rad/s (header, "Knee speed"): 0, the filtered motion's own peak
+  // knee speed (peak_knee_speed over all steps); < 0, no limit.
+  double max_knee_speed = 0;
 
   Status validate() const;
 };
+
+// The largest angular speed (rad/s) of the legs' knee rotations over the steps t-1 -> t of
+// `rotations` with counted[t] (empty: all steps), each step's speed capped by the larger of its
+// neighbouring steps' (a lone one-step spike, such as a glued T-pose frame, is not motion).
+double peak_knee_speed(RotationView rotations, std::span<const FootChain> legs, double frame_time,
+                       std::span<const std::uint8_t> counted = {});
 
 struct FootLockStats {
   int contacts = 0;        // contacts locked, over all legs
