@@ -13,6 +13,7 @@
 
 #include "engine/eval/eval_metrics.hpp"
 #include "engine/eval/eval_spec.hpp"
+#include "engine/foot_stage.hpp"
 #include "io/clip.hpp"
 #include "kernels/motion_split.hpp"
 
@@ -25,7 +26,8 @@ struct EvalConfig {
   double unit_cm = 0;  // 0 = guess per clip
   bool split_impossible = true;
   MotionSplitParams split;
-  bool repaired = false;  // some grid runs on the conditioned clips: prepare them
+  bool repaired = false;   // some grid runs on the conditioned clips: prepare them
+  bool lock_feet = false;  // some grid locks the feet: find the noisy clips' contacts
 };
 
 // One clean clip and what eval derives from it once.
@@ -49,6 +51,9 @@ struct NoisyClip {
   std::vector<double> repaired_sigma_hats;
   std::vector<std::uint8_t> garbage;
   std::size_t pops = 0;  // samples the repair replaced
+  // With config.lock_feet: the legs and contacts found on the noisy clip (feet) and on the
+  // conditioned one (repaired_feet), as `clean` finds them on the clip its filter sees.
+  ClipFeet feet, repaired_feet;
 };
 
 struct TaskResult {
@@ -108,8 +113,11 @@ Spread psnr_spread(const EvalResults& results, std::size_t m, std::size_t p, std
 // With `repaired`, on the conditioned clip: garbage joints are copied as they came and stay out
 // of nlpm's pose distance.
 // `out_translations` receives the filtered translations (sized like the clip's).
+// With `lock_feet`, the planted feet are then pinned (engine/foot_stage.hpp) with the noisy
+// clip's contacts.
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out,
-                   std::vector<float>& out_translations, nlohmann::json* resolved);
+                   std::vector<float>& out_translations, nlohmann::json* resolved,
+                   bool lock_feet = false);
 
 }  // namespace mocap::engine::eval
