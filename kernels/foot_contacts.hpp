@@ -4,14 +4,22 @@
 // the reference) and by foot locking (on the input before filtering).
 //
 // Per foot point, from its global track p[t] (Y up, file units):
-//   floor      = the 5th percentile of its height over the clip (robust to a few low pops and
-//                to the frames of a clip that start mid-air);
-//   smoothed   = p convolved with a Gaussian of 0.04 s, so measurement noise of the evaluated
-//                levels (0.02 rad, 0.4 % of the body) does not read as speed;
+//   smoothed   = p convolved with a Gaussian of sigma = max(0.04 s, the width at which the
+//                track's own noise reads as a mean speed of at most a quarter of enter_speed),
+//                at most 0.25 s; the noise n per frame is estimated from the track (1.4826 MAD
+//                of its horizontal second differences / sqrt 6), and smoothed white noise
+//                reads as 1.25 n / (2 pi^(1/4) sigma^1.5 frame_time). A fixed width in seconds
+//                is 4x fewer frames at 30 fps than at 120 fps and let the noise of eval's
+//                0.02 rad + 0.004 body chatter across the thresholds (56 contacts for 28);
+//   floor      = the 5th percentile of the smoothed height over the clip (robust to a few low
+//                pops and to clips that start mid-air; the raw heights' sits ~1.6 noise
+//                deviations low, which on noisy input fills the whole enter_height band);
 //   speed[t]   = |smoothed[t+1] - smoothed[t-1]| / (2 frame_time), horizontal (x, z) only;
 //   planted    enters when height - floor < enter_height and speed < enter_speed, and leaves
 //              when height - floor > exit_height or speed > exit_speed (hysteresis: noise near
-//              a threshold does not chatter); intervals shorter than min_seconds are dropped.
+//              a threshold does not chatter); a break of at most merge_seconds over which the
+//              smoothed foot moved less than merge_distance body heights joins the contacts
+//              either side; intervals shorter than min_seconds are dropped.
 // Thresholds are fractions of the body's height (per second for speeds), so the rule holds in
 // any unit and at any frame rate.
 #include <cstdint>
@@ -38,6 +46,10 @@ struct FootContactParams {
   double enter_speed = 0.25;  // body heights per second, horizontal
   double exit_speed = 0.40;
   double smoothing_seconds = 0.04;
+  double max_smoothing_seconds = 0.25;
+  double noise_speed_fraction = 0.25;  // of enter_speed: what the track's noise may read as
+  double merge_seconds = 0.1;
+  double merge_distance = 0.01;  // of body height
   double min_seconds = 0.05;
 
   Status validate() const;

@@ -358,7 +358,7 @@ Status FootLockJob::run() const {
       } else {
         rotation[std::size_t(j)] = rotation[std::size_t(p)] * q;
         position[std::size_t(j)] =
-            position[std::size_t(p)] + rotate(rotation[std::size_t(p)], local);
+            position[std::size_t(p)] + rotate_unit(rotation[std::size_t(p)], local);
       }
     }
   };
@@ -563,7 +563,9 @@ Status FootLockJob::run() const {
       const int chain[3] = {leg.hip, leg.knee, leg.ankle};
       for (int k = 0; k < 3; ++k) {
         float* q = rotations.at(t, chain[k]);
-        Quat out = normalized(locals[k]);
+        const Quat& v = locals[k];
+        const double inv = 1 / std::sqrt(dot(v, v));  // products of unit quaternions: never 0
+        Quat out{v.w * inv, v.x * inv, v.y * inv, v.z * inv};
         if (dot(out, load_quat(q)) < 0) out = negate(out);
         store_quat(out, q);
       }
