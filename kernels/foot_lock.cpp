@@ -254,6 +254,8 @@ Status FootLockJob::validate() const {
   }
   if (!(frame_time > 0) || !std::isfinite(frame_time))
     return Status::error("foot lock: frame_time must be > 0");
+  if (!counted_steps.empty() && int(counted_steps.size()) != rotations.frames)
+    return Status::error("foot lock: counted_steps must have one entry per frame");
   if (contacts.size() != legs.size())
     return Status::error("foot lock: " + std::to_string(contacts.size()) + " contact lists for " +
                          std::to_string(legs.size()) + " legs");
@@ -414,8 +416,8 @@ Status FootLockJob::run() const {
 
   double knee_speed_limit = params.max_knee_speed;
   if (knee_speed_limit == 0)
-    knee_speed_limit =
-        peak_knee_speed({rotations.data, rotations.frames, rotations.joints}, chains, frame_time);
+    knee_speed_limit = peak_knee_speed({rotations.data, rotations.frames, rotations.joints}, chains,
+                                       frame_time, counted_steps);
 
   // Pass 2: per frame, the legs' targets and reaches and the roots' drops.
   std::vector<std::vector<Vec3>> target(leg_count, std::vector<Vec3>(std::size_t(frames)));
@@ -472,6 +474,7 @@ Status FootLockJob::run() const {
   std::vector<std::uint8_t> ik(std::size_t(frames), 0);
   for (std::size_t l = 0; l < leg_count; ++l) {
     const FootChain& leg = chains[l];
+    std::fill(ik.begin(), ik.end(), 0);  // this leg's
     for (int t = 0; t < frames; ++t) {
       if (!touched[std::size_t(t)]) continue;
       const LegFrame& f = leg_frames[l][std::size_t(t)];
@@ -484,14 +487,29 @@ Status FootLockJob::run() const {
       // frame would then jump back up): every leg of a lowered root keeps its ankle's target.
       ik[std::size_t(t)] = active[l][std::size_t(t)] || leg_drop[l][std::size_t(t)] > 0;
     }
-    // g(t) = theta_f(t) - theta_f(t - 1); after a run, Delta = 0.
-    auto g = [&](int t) {
-      return t > 0 && touched[std::size_t(t - 1)]
-                 ? theta_f[std::size_t(t)] - theta_f[std::size_t(t - 1)]
-                 : 0.0;
-    };
-    // Backwards: Delta(t) in [Delta(t+1) + g(t+1) - step, Delta(t+1) + g(t+1) + step], with
-    // Delta = 0 on the frame after a run (none after the clip's last frame).
+    // The knee's step from t-1 to t: the filter's turn s_f(t) has an interior-angle part g(t)
+    // and a remainder r(t) (twist, r^2 = s_f^2 - g^2) that the IK leaves as it is; the IK adds
+    // Delta(t) - Delta(t-1) to the interior part. Under the limit: |g + Delta(t) - Delta(t-1)| <=
+    // q(t) = sqrt(step^2 - r^2) (0 where the twist alone exceeds it). A step that is not motion
+    // (counted_steps[t] == 0: into a glued T-pose frame) and the clip's first frame bind nothing.
+    std::vector<double> gain(std::size_t(frames), 0), room(std::size_t(frames), step_limit);
+    if (frames > 0) room[0] = INFINITY;
+    for (int t = 1; t < frames; ++t) {
+      if (!counted_steps.empty() && !counted_steps[std::size_t(t)]) {
+        room[std::size_t(t)] = INFINITY;
+        continue;
+      }
+      if (!ik[std::size_t(t)] && !ik[std::size_t(t - 1)]) continue;  // not next to this leg's IK
+      const double c = std::abs(
+          dot(load_quat(rotations.at(t - 1, leg.knee)), load_quat(rotations.at(t, leg.knee))));
+      const double turn = 2 * std::acos(std::min(1.0, c));
+      const double g = theta_f[std::size_t(t)] - theta_f[std::size_t(t - 1)];
+      const double twist2 = std::max(0.0, turn * turn - g * g);
+      gain[std::size_t(t)] = g;
+      room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
+    }
+    // Backwards: Delta(t) in Delta(t+1) + g(t+1) -+ q(t+1), with Delta = 0 on the frame after a
+    // run (none after the clip's last frame).
     double lo = -INFINITY, hi = INFINITY;
     for (int t = frames - 1; t >= 0; --t) {
       if (!ik[std::size_t(t)]) {
@@ -499,8 +517,8 @@ Status FootLockJob::run() const {
         continue;
       }
       if (t + 1 < frames) {
-        lo += g(t + 1) - step_limit;
-        hi += g(t + 1) + step_limit;
+        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
+        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
       }
       low[std::size_t(t)] = lo;
       high[std::size_t(t)] = hi;
@@ -544,10 +562,9 @@ Status FootLockJob::run() const {
         // Delta = theta_1 - theta_f, kept within one step of the previous frame's (the knee
         // then turns no faster than the limit) and within the band that returns to 0.
         const double wanted = std::acos(cos1) - theta_f[std::size_t(t)];
-        const double gt = g(t);
-        // The clip's first frame has no previous one to keep up with.
-        const double a = t == 0 ? low[0] : std::max(low[std::size_t(t)], delta - gt - step_limit),
-                     b = t == 0 ? high[0] : std::min(high[std::size_t(t)], delta - gt + step_limit);
+        const double g = gain[std::size_t(t)], q = room[std::size_t(t)];
+        const double a = std::max(low[std::size_t(t)], delta - g - q),
+                     b = std::min(high[std::size_t(t)], delta - g + q);
         const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
         if (limited != wanted) cos1 = std::cos(theta_f[std::size_t(t)] + limited);
         delta = limited;

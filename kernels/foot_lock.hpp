@@ -38,12 +38,15 @@
 //   with the filter in a frame or two: a pop (measured: up to 1.7x the input's peak knee speed).
 //   So the change the IK makes to the knee's interior angle, Delta(t) = theta_1(t) -
 //   theta_f(t), is kept such that the locked knee turns no faster than a limit W (the filtered
-//   motion's own peak knee speed by default, peak_knee_speed): |theta_l(t) - theta_l(t-1)| <= W
-//   frame_time with theta_l = theta_f + Delta, and Delta must be back to 0 on the frame after each
-//   run of IK frames (a backward pass gives the band of Delta that can still get there; the forward
-//   pass clamps the wanted Delta into it and into the step from the previous frame). Where the
-//   limit bites the ankle misses its target along the hip-target line by what the knee could not
-//   do.
+//   motion's own peak knee speed by default, peak_knee_speed): the filter's knee turn s_f(t)
+//   per frame splits into its interior-angle part g(t) and a twist r (r^2 = s_f^2 - g^2) the IK
+//   keeps, and the IK adds Delta(t) - Delta(t-1) to the interior part, so |g + Delta(t) -
+//   Delta(t-1)| <= sqrt((W frame_time)^2 - r^2); Delta must be back to 0 on the frame after each
+//   run of IK frames (a backward pass gives the band of Delta that can still get there; the
+//   forward pass clamps the wanted Delta into it and into the step from the previous frame's).
+//   A bound on the interior angle alone let the filter's twist add to it (eval: 1.22x). Where
+//   the limit bites the ankle misses its target along the hip-target line by what the knee could
+//   not do.
 // Frames with D = 0 on every leg of a root are left bit-identical, and so is every joint that is
 // not a hip, knee or ankle of a leg (rotations) or a lowered root (translation).
 #include <cstdint>
@@ -96,6 +99,10 @@ struct FootLockJob {
   // none), which lock the foot where only the toe is planted.
   std::span<const std::vector<ContactInterval>> contacts;
   std::span<const std::vector<ContactInterval>> toe_contacts;
+  // Optional, one entry per frame: 0 where the step t-1 -> t is not motion (into or out of a
+  // one-frame segment such as CMU's T-pose frame 0): left out of the knee's peak speed, and the
+  // knee's speed limit does not hold across it.
+  std::span<const std::uint8_t> counted_steps;
   FootLockStats* stats = nullptr;  // optional, written
 
   // Sizes agree, legs are hip -> knee -> ankle (-> toe) chains, no joint in two legs, one

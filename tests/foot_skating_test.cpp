@@ -295,8 +295,12 @@ TEST_P(FootSkating, CleanDefaultsOnNoisyInputStayNearTheCapturesSkating) {
         data.names[i].c_str(), capture.skating, input.skating, off.skating, on.skating,
         off.skating / capture.skating, on.skating / capture.skating, off.mpjpe / input.mpjpe,
         on.mpjpe / input.mpjpe, 100 * coverage);
-    if (coverage >= 0.5) EXPECT_LT(on.skating, off.skating) << data.names[i];
-    if (coverage >= 0.9) EXPECT_LE(on.skating, 1.2 * capture.skating) << data.names[i];
+    if (coverage >= 0.5) {
+      EXPECT_LT(on.skating, off.skating) << data.names[i];
+    }
+    if (coverage >= 0.9) {
+      EXPECT_LE(on.skating, 1.2 * capture.skating) << data.names[i];
+    }
   }
 }
 
