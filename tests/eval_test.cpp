@@ -121,13 +121,14 @@ TEST(EvalCommand, WritesTheReportWithTheExpectedStructure) {
   const std::string table = test::read_text(out / "table.md");
   EXPECT_NE(table.find("| method | gaussian 0.03 | impulse 0.01 |"), std::string::npos) << table;
   // Rows "| bof | 43.21 / 42.10 | 40.00 / 39.99 |": in the tables of 2 decimals (joint position
-  // error, jitter and skating ratios, PSNR, RMSE, foot skating share), once per method.
+  // error, jitter and skating ratios, peak knee speed ratio, PSNR, RMSE, foot skating share),
+  // once per method.
   int rows = 0;
   std::istringstream lines(table);
   for (std::string text; std::getline(lines, text);)
     for (const std::string method : {"| bof ", "| nlpm ", "| kalman "})
       if (text.rfind(method, 0) == 0 && two_pair_cells(text.substr(method.size()))) ++rows;
-  EXPECT_EQ(rows, 6 * 3) << table;
+  EXPECT_EQ(rows, 7 * 3) << table;
 
   const std::string html = test::read_text(out / "index.html");
   int images = 0;
