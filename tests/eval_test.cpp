@@ -210,6 +210,44 @@ TEST(EvalCommand, UsageErrorsSayWhy) {
   EXPECT_EQ(r.exit_code, 2);
 }
 
+// --feet both: beside each method a METHOD+feet grid (automatic parameters only) that locks the
+// feet; on the shared clips at 30 fps with no noise added it keeps every clip's skating over the
+// capture's contacts at most 1.05x the capture's (issue 14's target), where auto alone does not.
+TEST(EvalCommand, FeetBothAddsLockedRowsThatKeepTheCapturesSkating) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  std::vector<MethodGrid> grids = build_grids({EvalMethod::bof, EvalMethod::automatic}, {});
+  const std::size_t bof_points = grids[0].points.size();
+  apply_feet_mode(grids, "both");
+  ASSERT_EQ(grids.size(), 4u);
+  EXPECT_EQ(label(grids[1]), "bof+feet");
+  EXPECT_TRUE(grids[1].points.empty() && grids[1].lock_feet && locked_twin(grids, 1));
+  EXPECT_EQ(grids[0].points.size(), bof_points);
+  EXPECT_FALSE(locked_twin(grids, 2));
+
+  test::TempDir out("eval-feet");
+  const auto r =
+      test::run_cli("eval '" + test::shared_bvh_dir().string() + "' -o '" + out.path().string() +
+                    "' --noise gaussian:0 --methods auto --pops on --feet both "
+                    "--frame-step 4 --no-plots");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(test::read_text(out.path() / "report.json"));
+  ASSERT_EQ(report["methods"].size(), 2u);
+  EXPECT_EQ(report["methods"][1]["method"], "auto+feet");
+  EXPECT_TRUE(report["methods"][1]["lock_feet"].get<bool>());
+  const auto& off = report["methods"][0]["automatic"]["results"][0]["clips"];
+  const auto& on = report["methods"][1]["automatic"]["results"][0]["clips"];
+  int worse_off = 0;
+  for (std::size_t k = 0; k < report["clips"].size(); ++k) {
+    const double capture = report["clips"][k]["clean_foot_skating_mm"].get<double>();
+    EXPECT_LE(on[k]["foot_skating_mm"].get<double>(), 1.05 * capture) << on[k]["clip"];
+    EXPECT_TRUE(on[k]["knee_peak_speed_ratio"].is_number()) << on[k]["clip"];
+    worse_off += off[k]["foot_skating_mm"].get<double>() > 1.05 * capture;
+  }
+  EXPECT_GT(worse_off, 0) << "auto alone keeps the feet planted: the check would be vacuous";
+  EXPECT_NE(test::read_text(out.path() / "table.md").find("Feet per clip, auto vs auto+feet"),
+            std::string::npos);
+}
+
 TEST(EvalSpec, GridsAreCartesianProductsAndAlternativesReplaceEachOther) {
   std::string error;
   const auto g1 = parse_grid_override("bof.sigma_g=0.1,0.2,0.4", &error);
