@@ -4,13 +4,12 @@
 // the reference) and by foot locking (on the input before filtering).
 //
 // Per foot point, from its global track p[t] (Y up, file units):
-//   smoothed   = p convolved with a Gaussian of sigma = max(0.04 s, the width at which the
-//                track's own noise reads as a mean speed of at most a quarter of enter_speed),
-//                at most 0.25 s; the noise n per frame is estimated from the track (1.4826 MAD
-//                of its horizontal second differences / sqrt 6), and smoothed white noise
-//                reads as 1.25 n / (2 pi^(1/4) sigma^1.5 frame_time). A fixed width in seconds
-//                is 4x fewer frames at 30 fps than at 120 fps and let the noise of eval's
-//                0.02 rad + 0.004 body chatter across the thresholds (56 contacts for 28);
+//   smoothed   = p convolved with a Gaussian of 0.04 s, so measurement noise of the evaluated
+//                levels (0.02 rad, 0.4 % of the body) does not read as speed; with
+//                noise_speed_fraction > 0 (off by default, README "Feet"), widened to where the
+//                track's own noise n per frame (1.4826 MAD of its horizontal second differences
+//                / sqrt 6) reads as a mean speed 1.25 n / (2 pi^(1/4) sigma^1.5 frame_time) of at
+//                most that fraction of enter_speed, at most max_smoothing_seconds;
 //   floor      = the 5th percentile of the smoothed height over the clip (robust to a few low
 //                pops and to clips that start mid-air; the raw heights' sits ~1.6 noise
 //                deviations low, which on noisy input fills the whole enter_height band);
@@ -47,7 +46,10 @@ struct FootContactParams {
   double exit_speed = 0.40;
   double smoothing_seconds = 0.04;
   double max_smoothing_seconds = 0.25;
-  double noise_speed_fraction = 0.25;  // of enter_speed: what the track's noise may read as
+  // Of enter_speed: what the track's noise may read as (0: a width of smoothing_seconds only;
+  // README "Feet": widening the smoothing by the noise joined the swings of the demo's noisier
+  // clips (0.05 rad) to their stances, and cost them 5-11 dB of rotation PSNR).
+  double noise_speed_fraction = 0;
   double merge_seconds = 0.1;
   double merge_distance = 0.01;  // of body height
   double min_seconds = 0.05;

@@ -96,9 +96,8 @@ TEST(FootContacts, NoiseDoesNotChatter) {
 }
 
 // The ankle noise of eval's 0.02 rad + 0.004 body (about 1.8 % of the body per axis on the
-// shared clips, 3 cm here) at 30 and 120 fps: one interval per stance. A smoothing width fixed
-// in seconds is 4x fewer frames at 30 fps; on the shared clips at 30 fps it found 56 contacts
-// where the clean capture has 28.
+// shared clips, 3 cm here) at 30 and 120 fps: one interval per stance (the smoothing is 4x fewer
+// frames at 30 fps).
 TEST(FootContacts, EvalsNoiseDoesNotChatterAtAnyFrameRate) {
   for (double fps : {30.0, 120.0}) {
     const int frames = int(6 * fps);
