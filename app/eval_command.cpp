@@ -88,6 +88,7 @@ std::string canonical_command(const EvalCommand& c, const EvalConfig& config) {
   for (const auto& n : c.noise) s += " --noise " + quote(n);
   s += " --methods " + c.methods;
   s += " --pops " + c.pops;
+  if (c.feet != "off") s += " --feet " + c.feet;
   for (const auto& g : c.grid) s += " --grid " + quote(g);
   s += fmt::format(" --seed {}", config.seed);
   if (c.unit_cm > 0) s += fmt::format(" --unit-cm {:g}", c.unit_cm);
@@ -122,6 +123,13 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
                   "engine's default pop stage, --pops auto (rows METHOD+pops; garbage joints "
                   "kept); both")
       ->check(CLI::IsMember({"off", "on", "both"}))
+      ->capture_default_str()
+      ->group("Evaluation");
+  cmd->add_option("--feet", command.feet,
+                  "foot locking after the filter (as clean --feet lock): off; lock, on every "
+                  "run; both, rows METHOD+feet beside each method (its automatic parameters, "
+                  "then locking), with per-clip feet tables")
+      ->check(CLI::IsMember({"off", "lock", "both"}))
       ->capture_default_str()
       ->group("Evaluation");
   cmd->add_option(
@@ -200,6 +208,9 @@ int run_eval(const EvalCommand& command) {
     overrides.push_back(*g);
   }
   config.grids = build_grids(methods, overrides, command.pops != "on", command.pops != "off");
+  apply_feet_mode(config.grids, command.feet);
+  config.lock_feet = std::any_of(config.grids.begin(), config.grids.end(),
+                                 [](const MethodGrid& g) { return g.lock_feet; });
   config.repaired = std::any_of(config.grids.begin(), config.grids.end(),
                                 [](const MethodGrid& g) { return g.repaired; });
 

@@ -51,16 +51,49 @@ std::vector<Vec3> smooth(const std::vector<Vec3>& track, double sigma) {
   return out;
 }
 
+// The per-frame noise of a track's horizontal axes (white noise of std n has second differences
+// of std sqrt(6) n): 1.4826 MAD / sqrt(6) of the second differences, the larger of x and z. The
+// median looks at the frames where the foot moves smoothly (most of a clip), not at its swings.
+double horizontal_noise(const std::vector<Vec3>& track) {
+  const std::size_t n = track.size();
+  if (n < 3) return 0;
+  double largest = 0;
+  std::vector<double> d(n - 2);
+  for (int axis : {0, 2}) {
+    for (std::size_t t = 1; t + 1 < n; ++t) {
+      const auto at = [&](std::size_t u) { return axis == 0 ? track[u].x : track[u].z; };
+      d[t - 1] = std::abs(at(t + 1) - 2 * at(t) + at(t - 1));
+    }
+    std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
+    largest = std::max(largest, 1.4826 * d[d.size() / 2] / std::sqrt(6.0));
+  }
+  return largest;
+}
+
 std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootContactParams& p,
                                     double frame_time, double height) {
   const int n = int(track.size());
   std::vector<ContactInterval> out;
   if (n < 3) return out;
-  std::vector<double> ys(track.size());
-  for (std::size_t t = 0; t < track.size(); ++t) ys[t] = track[t].y;
+  // Smoothing width (header): at least smoothing_seconds, and wide enough that the track's
+  // noise reads as a speed of at most noise_speed_fraction of enter_speed (mean of the
+  // horizontal speed of smoothed white noise of std `noise` per axis, sigma frames:
+  // 1.25 noise / (2 pi^(1/4) sigma^1.5 frame_time)), at most max_smoothing_seconds.
+  double sigma = p.smoothing_seconds / frame_time;
+  const double noise = horizontal_noise(track);
+  const double allowed = p.noise_speed_fraction * p.enter_speed * height;
+  if (noise > 0 && allowed > 0) {
+    const double needed =
+        std::pow(1.25 * noise / (2 * std::pow(kPi, 0.25) * frame_time * allowed), 2.0 / 3.0);
+    sigma = std::max(sigma, std::min(needed, p.max_smoothing_seconds / frame_time));
+  }
+  const std::vector<Vec3> s = smooth(track, sigma);
+  // The floor from the smoothed heights: the raw heights' low percentile sits about 1.6 noise
+  // deviations below the floor, which on noisy input is the whole enter_height band.
+  std::vector<double> ys(s.size());
+  for (std::size_t t = 0; t < s.size(); ++t) ys[t] = s[t].y;
   std::nth_element(ys.begin(), ys.begin() + std::ptrdiff_t(ys.size() / 20), ys.end());
   const double floor = ys[ys.size() / 20];
-  const std::vector<Vec3> s = smooth(track, p.smoothing_seconds / frame_time);
   auto speed = [&](int t) {
     const int a = std::max(t - 1, 0), b = std::min(t + 1, n - 1);
     const double dx = s[std::size_t(b)].x - s[std::size_t(a)].x,
@@ -80,7 +113,20 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
       now = false;
     }
     if (now && !planted) begin = t;
-    if (!now && planted && t - begin >= min_frames) out.push_back({begin, t});
+    if (!now && planted) {
+      // A short break where the foot stays put (noise crossing an exit threshold) joins the
+      // previous contact.
+      const bool joins = [&] {
+        if (out.empty()) return false;
+        const Vec3 moved = s[std::size_t(begin)] - s[std::size_t(out.back().end - 1)];
+        return begin - out.back().end <= std::lround(p.merge_seconds / frame_time) &&
+               std::hypot(moved.x, moved.z) < p.merge_distance * height;
+      }();
+      if (joins)
+        out.back().end = t;
+      else if (t - begin >= min_frames)
+        out.push_back({begin, t});
+    }
     planted = now;
   }
   return out;
@@ -94,6 +140,11 @@ Status FootContactParams::validate() const {
     if (!positive_finite(v)) return Status::error("foot contacts: thresholds must be > 0");
   if (!(smoothing_seconds >= 0) || !std::isfinite(smoothing_seconds))
     return Status::error("foot contacts: smoothing_seconds must be >= 0");
+  for (double v : {max_smoothing_seconds, noise_speed_fraction, merge_seconds, merge_distance})
+    if (!(v >= 0) || !std::isfinite(v))
+      return Status::error(
+          "foot contacts: max_smoothing_seconds, noise_speed_fraction, merge_seconds and "
+          "merge_distance must be finite and >= 0");
   if (exit_height < enter_height || exit_speed < enter_speed)
     return Status::error("foot contacts: an exit threshold must be at least its enter threshold");
   return {};

@@ -11,20 +11,41 @@ Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 
-// The shortest-arc rotation taking the direction of u onto the direction of v.
+// The shortest-arc rotation taking the direction of u onto the direction of v:
+// (|u||v| + u.v, u x v) normalized, one square root.
 Quat rotation_between(Vec3 u, Vec3 v) {
-  const double nu = norm(u), nv = norm(v);
-  if (nu <= 0 || nv <= 0) return {};
-  u = (1 / nu) * u;
-  v = (1 / nv) * v;
-  const double w = 1 + dot(u, v);
-  if (w < 1e-12) {  // opposite: any axis perpendicular to u
-    Vec3 axis = cross(u, std::abs(u.x) < 0.9 ? Vec3{1, 0, 0} : Vec3{0, 1, 0});
+  const double nn = std::sqrt(dot(u, u) * dot(v, v));
+  if (!(nn > 0)) return {};
+  const double w = nn + dot(u, v);
+  if (w < 1e-12 * nn) {  // opposite: any axis perpendicular to u
+    Vec3 axis = cross(u, std::abs(u.x) < 0.9 * norm(u) ? Vec3{1, 0, 0} : Vec3{0, 1, 0});
     axis = (1 / norm(axis)) * axis;
     return {0, axis.x, axis.y, axis.z};
   }
   const Vec3 c = cross(u, v);
-  return normalized({w, c.x, c.y, c.z});
+  const double inv = 1 / std::sqrt(w * w + dot(c, c));
+  return {w * inv, c.x * inv, c.y * inv, c.z * inv};
+}
+
+// q v q^-1 for a unit q, as v + 2 w (r x v) + 2 r x (r x v), r = q's vector part (inline:
+// the lock runs it a few times per leg and frame).
+Vec3 rotate_unit(Quat q, Vec3 v) {
+  const Vec3 r{q.x, q.y, q.z};
+  const Vec3 t = 2 * cross(r, v);
+  return v + q.w * t + cross(r, t);
+}
+
+// The unit quaternion of a rotation by delta about the unit axis n, from cos(theta0), cos(theta1)
+// with delta = theta0 - theta1, theta in [0, pi]: no inverse trigonometry (cos and sin of delta
+// from the angles' sums, then the half angle).
+Quat turn_between(double c0, double c1, Vec3 n) {
+  const double s0 = std::sqrt(std::max(0.0, 1 - c0 * c0)),
+               s1 = std::sqrt(std::max(0.0, 1 - c1 * c1));
+  const double cd = std::clamp(c0 * c1 + s0 * s1, -1.0, 1.0), sd = s0 * c1 - c0 * s1;
+  const double ch = std::sqrt(0.5 * (1 + cd));  // cos(delta / 2) >= 0, |delta| <= pi
+  // sin(delta / 2): from sin(delta) where the half angle is small (accurate), else from cos.
+  const double sh = ch > 0.5 ? sd / (2 * ch) : std::copysign(std::sqrt(0.5 * (1 - cd)), sd);
+  return {ch, sh * n.x, sh * n.y, sh * n.z};
 }
 
 double smoothstep(double x) {
@@ -178,11 +199,37 @@ int top_ancestor(std::span<const int> parents, int joint) {
 
 }  // namespace
 
+double peak_knee_speed(RotationView rotations, std::span<const FootChain> legs, double frame_time,
+                       std::span<const std::uint8_t> counted) {
+  // Per step, c = |q_{t-1} . q_t| (the smaller, the larger the turn: one acos at the end). A
+  // step counts up to the larger turn of its neighbouring steps: a lone spike (a glued T-pose
+  // frame, a pop) is not the knee's motion, while a swing's peak has a neighbour near it.
+  double smallest = 1;
+  const int frames = rotations.frames;
+  std::vector<double> c(std::size_t(std::max(frames, 0)), 1.0);
+  for (const FootChain& leg : legs) {
+    if (leg.knee < 0 || leg.knee >= rotations.joints) continue;
+    for (int t = 1; t < frames; ++t)
+      c[std::size_t(t)] = !counted.empty() && !counted[std::size_t(t)]
+                              ? 1.0
+                              : std::abs(dot(load_quat(rotations.at(t - 1, leg.knee)),
+                                             load_quat(rotations.at(t, leg.knee))));
+    for (int t = 1; t < frames; ++t) {
+      const double before = t > 1 ? c[std::size_t(t - 1)] : 1.0,
+                   after = t + 1 < frames ? c[std::size_t(t + 1)] : 1.0;
+      smallest = std::min(smallest, std::max(c[std::size_t(t)], std::min(before, after)));
+    }
+  }
+  return 2 * std::acos(std::min(1.0, smallest)) / frame_time;
+}
+
 Status FootLockParams::validate() const {
   if (!(blend_time >= 0) || !std::isfinite(blend_time))
     return Status::error("foot lock: blend_time must be finite and >= 0");
   if (!(max_reach > 0 && max_reach <= 1))
     return Status::error("foot lock: max_reach must be in (0, 1]");
+  if (std::isnan(max_knee_speed) || std::isinf(max_knee_speed))
+    return Status::error("foot lock: max_knee_speed must be finite");
   return {};
 }
 
@@ -207,6 +254,8 @@ Status FootLockJob::validate() const {
   }
   if (!(frame_time > 0) || !std::isfinite(frame_time))
     return Status::error("foot lock: frame_time must be > 0");
+  if (!counted_steps.empty() && int(counted_steps.size()) != rotations.frames)
+    return Status::error("foot lock: counted_steps must have one entry per frame");
   if (contacts.size() != legs.size())
     return Status::error("foot lock: " + std::to_string(contacts.size()) + " contact lists for " +
                          std::to_string(legs.size()) + " legs");
@@ -266,8 +315,27 @@ Status FootLockJob::run() const {
   }
   const std::size_t leg_count = chains.size();
 
-  // Pass 1: the filtered motion's leg frames (forward kinematics, spec-free, as in
-  // forward_kinematics.hpp, with the global rotations kept).
+  const int blend = std::max(1, int(std::lround(params.blend_time / frame_time)));
+  std::vector<std::vector<std::uint8_t>> labels(leg_count);
+  // The frames the lock can touch, within `blend` frames of a contact of some leg (the offsets
+  // are 0 elsewhere), and one more each side (the knee's speed there): only there are the leg
+  // frames needed.
+  std::vector<std::uint8_t> touched(std::size_t(frames), 0);
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    labels[l] = contact_labels(ankle_lists[l], toe_lists[l], frames);
+    for (int t = 0, last = -2 - blend; t < frames; ++t) {
+      if (labels[l][std::size_t(t)] != 0) {
+        for (int u = std::max({0, t - blend - 1, last + 1}); u <= t; ++u)
+          touched[std::size_t(u)] = 1;
+        last = t;
+      } else if (t - last <= blend + 1) {
+        touched[std::size_t(t)] = 1;
+      }
+    }
+  }
+
+  // Pass 1: the filtered motion's leg frames at the touched frames (forward kinematics,
+  // spec-free, as in forward_kinematics.hpp, with the global rotations kept).
   std::vector<std::vector<LegFrame>> leg_frames(leg_count,
                                                 std::vector<LegFrame>(std::size_t(frames)));
   std::vector<Quat> rotation(static_cast<std::size_t>(joints));
@@ -292,11 +360,12 @@ Status FootLockJob::run() const {
       } else {
         rotation[std::size_t(j)] = rotation[std::size_t(p)] * q;
         position[std::size_t(j)] =
-            position[std::size_t(p)] + rotate(rotation[std::size_t(p)], local);
+            position[std::size_t(p)] + rotate_unit(rotation[std::size_t(p)], local);
       }
     }
   };
   for (int t = 0; t < frames; ++t) {
+    if (!touched[std::size_t(t)]) continue;
     forward(t);
     for (std::size_t l = 0; l < leg_count; ++l) {
       const FootChain& leg = chains[l];
@@ -314,21 +383,22 @@ Status FootLockJob::run() const {
   }
 
   // The offsets D(t) per leg.
-  const int blend = std::max(1, int(std::lround(params.blend_time / frame_time)));
   std::vector<std::vector<Vec3>> offset(leg_count);
   std::vector<std::vector<std::uint8_t>> active(leg_count);
   for (std::size_t l = 0; l < leg_count; ++l) {
-    const std::vector<std::uint8_t> label = contact_labels(ankle_lists[l], toe_lists[l], frames);
+    const std::vector<std::uint8_t>& label = labels[l];
     for (std::uint8_t v : label) local_stats.locked_frames += v != 0;
     local_stats.contacts +=
         leg_offsets(chains[l], leg_frames[l], label, blend, offset[l], active[l]);
   }
 
   // The bend-plane normal of each leg, carried over frames where the leg is straight: first the
-  // first frame's that has one.
+  // first touched frame's that has one.
   std::vector<Vec3> normal(leg_count, Vec3{});
   for (std::size_t l = 0; l < leg_count; ++l) {
-    for (const LegFrame& f : leg_frames[l]) {
+    for (int t = 0; t < frames; ++t) {
+      if (!touched[std::size_t(t)]) continue;
+      const LegFrame& f = leg_frames[l][std::size_t(t)];
       const Vec3 n = cross(f.knee - f.hip, f.ankle - f.hip);
       if (norm(n) >
           1e-9 * (dot(f.knee - f.hip, f.knee - f.hip) + dot(f.ankle - f.knee, f.ankle - f.knee))) {
@@ -344,28 +414,36 @@ Status FootLockJob::run() const {
     return !translated_joints.empty() && translated_joints[std::size_t(r)] != 0;
   };
 
-  // Pass 2: per frame, the roots' drops, then the IK.
-  std::vector<Vec3> target(leg_count);
-  std::vector<double> reach(leg_count);
+  double knee_speed_limit = params.max_knee_speed;
+  if (knee_speed_limit == 0)
+    knee_speed_limit = peak_knee_speed({rotations.data, rotations.frames, rotations.joints}, chains,
+                                       frame_time, counted_steps);
+
+  // Pass 2: per frame, the legs' targets and reaches and the roots' drops.
+  std::vector<std::vector<Vec3>> target(leg_count, std::vector<Vec3>(std::size_t(frames)));
+  std::vector<std::vector<double>> reach(leg_count, std::vector<double>(std::size_t(frames), 0));
+  std::vector<std::vector<double>> leg_drop(leg_count, std::vector<double>(std::size_t(frames), 0));
   std::vector<std::pair<int, double>> drops;  // (root, drop)
+  auto reach_of = [&](const LegFrame& f) {
+    const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
+    return std::min(l1 + l2, std::max(params.max_reach * (l1 + l2), norm(f.ankle - f.hip)));
+  };
   for (int t = 0; t < frames; ++t) {
+    if (!touched[std::size_t(t)]) continue;
     drops.clear();
     for (std::size_t l = 0; l < leg_count; ++l) {
       const LegFrame& f = leg_frames[l][std::size_t(t)];
-      const Vec3 n = cross(f.knee - f.hip, f.ankle - f.hip);
-      const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
-      if (norm(n) > 1e-9 * (l1 * l1 + l2 * l2)) normal[l] = (1 / norm(n)) * n;
-      if (!active[l][std::size_t(t)]) continue;
       // The horizontal offset only (header: the height would move the knee).
-      target[l] = f.ankle + Vec3{offset[l][std::size_t(t)].x, 0, offset[l][std::size_t(t)].z};
-      reach[l] = std::min(l1 + l2, std::max(params.max_reach * (l1 + l2), norm(f.ankle - f.hip)));
-      const Vec3 to_target = target[l] - f.hip;
-      if (norm(to_target) <= reach[l] || !lowerable(root[l])) continue;
+      target[l][std::size_t(t)] =
+          f.ankle + Vec3{offset[l][std::size_t(t)].x, 0, offset[l][std::size_t(t)].z};
+      reach[l][std::size_t(t)] = reach_of(f);
+      if (!active[l][std::size_t(t)]) continue;
+      const Vec3 to_target = target[l][std::size_t(t)] - f.hip;
+      const double r = reach[l][std::size_t(t)];
+      if (norm(to_target) <= r || !lowerable(root[l])) continue;
       const double horizontal = std::hypot(to_target.x, to_target.z);
-      const double height = f.hip.y - target[l].y;
-      double drop = horizontal < reach[l]
-                        ? height - std::sqrt(reach[l] * reach[l] - horizontal * horizontal)
-                        : height;
+      const double height = f.hip.y - target[l][std::size_t(t)].y;
+      double drop = horizontal < r ? height - std::sqrt(r * r - horizontal * horizontal) : height;
       drop = std::max(drop, 0.0);
       auto it = std::find_if(drops.begin(), drops.end(),
                              [&](const auto& d) { return d.first == root[l]; });
@@ -383,34 +461,116 @@ Status FootLockJob::run() const {
       local_stats.max_drop = std::max(local_stats.max_drop, drop);
     }
     local_stats.lowered_frames += lowered;
-    for (std::size_t l = 0; l < leg_count; ++l) {
-      double drop = 0;
+    for (std::size_t l = 0; l < leg_count; ++l)
       for (const auto& [r, d] : drops)
-        if (r == root[l]) drop = d;
+        if (r == root[l]) leg_drop[l][std::size_t(t)] = std::max(d, 0.0);
+  }
+
+  // The knee's speed limit (header): per leg, the filtered interior angle theta_f and, over each
+  // run of IK frames, the band of change Delta that can still return to 0 after the run.
+  const double step_limit = knee_speed_limit > 0 ? knee_speed_limit * frame_time : 0.0;
+  std::vector<double> theta_f(std::size_t(frames), 0), low(std::size_t(frames), 0),
+      high(std::size_t(frames), 0);
+  std::vector<std::uint8_t> ik(std::size_t(frames), 0);
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    const FootChain& leg = chains[l];
+    std::fill(ik.begin(), ik.end(), 0);  // this leg's
+    for (int t = 0; t < frames; ++t) {
+      if (!touched[std::size_t(t)]) continue;
+      const LegFrame& f = leg_frames[l][std::size_t(t)];
+      const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
+      theta_f[std::size_t(t)] =
+          l1 > 0 && l2 > 0
+              ? std::acos(std::clamp(dot(f.hip - f.knee, f.ankle - f.knee) / (l1 * l2), -1.0, 1.0))
+              : 0.0;
       // A lowered root would drag the free legs down with it (and a leg whose lock starts next
       // frame would then jump back up): every leg of a lowered root keeps its ankle's target.
-      if (!active[l][std::size_t(t)] && drop <= 0) continue;
-      const FootChain& leg = chains[l];
-      LegFrame f = leg_frames[l][std::size_t(t)];
-      if (!active[l][std::size_t(t)]) {
-        target[l] = f.ankle;
-        const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
-        reach[l] = std::min(l1 + l2, std::max(params.max_reach * (l1 + l2), norm(f.ankle - f.hip)));
+      ik[std::size_t(t)] = active[l][std::size_t(t)] || leg_drop[l][std::size_t(t)] > 0;
+    }
+    // The knee's step from t-1 to t: the filter's turn s_f(t) has an interior-angle part g(t)
+    // and a remainder r(t) (twist, r^2 = s_f^2 - g^2) that the IK leaves as it is; the IK adds
+    // Delta(t) - Delta(t-1) to the interior part. Under the limit: |g + Delta(t) - Delta(t-1)| <=
+    // q(t) = sqrt(step^2 - r^2) (0 where the twist alone exceeds it). A step that is not motion
+    // (counted_steps[t] == 0: into a glued T-pose frame) and the clip's first frame bind nothing.
+    std::vector<double> gain(std::size_t(frames), 0), room(std::size_t(frames), step_limit);
+    if (frames > 0) room[0] = INFINITY;
+    for (int t = 1; t < frames; ++t) {
+      if (!counted_steps.empty() && !counted_steps[std::size_t(t)]) {
+        room[std::size_t(t)] = INFINITY;
+        continue;
       }
+      if (!ik[std::size_t(t)] && !ik[std::size_t(t - 1)]) continue;  // not next to this leg's IK
+      const double c = std::abs(
+          dot(load_quat(rotations.at(t - 1, leg.knee)), load_quat(rotations.at(t, leg.knee))));
+      const double turn = 2 * std::acos(std::min(1.0, c));
+      const double g = theta_f[std::size_t(t)] - theta_f[std::size_t(t - 1)];
+      const double twist2 = std::max(0.0, turn * turn - g * g);
+      gain[std::size_t(t)] = g;
+      room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
+    }
+    // Backwards: Delta(t) in Delta(t+1) + g(t+1) -+ q(t+1), with Delta = 0 on the frame after a
+    // run (none after the clip's last frame).
+    double lo = -INFINITY, hi = INFINITY;
+    for (int t = frames - 1; t >= 0; --t) {
+      if (!ik[std::size_t(t)]) {
+        lo = hi = 0;
+        continue;
+      }
+      if (t + 1 < frames) {
+        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
+        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
+      }
+      low[std::size_t(t)] = lo;
+      high[std::size_t(t)] = hi;
+    }
+
+    double delta = 0;  // Delta(t - 1)
+    Vec3 n = normal[l];
+    for (int t = 0; t < frames; ++t) {
+      if (!touched[std::size_t(t)]) {
+        delta = 0;
+        continue;
+      }
+      LegFrame f = leg_frames[l][std::size_t(t)];
+      {
+        const Vec3 c = cross(f.knee - f.hip, f.ankle - f.hip);
+        const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
+        if (norm(c) > 1e-9 * (l1 * l1 + l2 * l2)) n = (1 / norm(c)) * c;
+      }
+      if (!ik[std::size_t(t)]) {
+        delta = 0;
+        continue;
+      }
+      const double drop = leg_drop[l][std::size_t(t)];
+      const Vec3 goal = active[l][std::size_t(t)] ? target[l][std::size_t(t)] : f.ankle;
       const Vec3 down{0, -drop, 0};
       f.hip += down;
       f.knee += down;
       f.ankle += down;
       const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
-      if (l1 <= 0 || l2 <= 0) continue;  // a bone of zero length: nothing to bend
-      const Vec3 to_target = target[l] - f.hip;
-      const double d = std::clamp(norm(to_target), std::abs(l1 - l2) + 1e-9 * (l1 + l2), reach[l]);
+      if (l1 <= 0 || l2 <= 0) {  // a bone of zero length: nothing to bend
+        delta = 0;
+        continue;
+      }
+      const Vec3 to_target = goal - f.hip;
+      const double d = std::clamp(norm(to_target), std::abs(l1 - l2) + 1e-9 * (l1 + l2),
+                                  reach[l][std::size_t(t)]);
       const Vec3 thigh_back = f.hip - f.knee, shin = f.ankle - f.knee;
-      const double theta0 = std::acos(std::clamp(dot(thigh_back, shin) / (l1 * l2), -1.0, 1.0));
-      const double theta1 =
-          std::acos(std::clamp((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0));
-      const Quat knee_turn = exp((theta0 - theta1) * normal[l]);
-      const Vec3 bent_ankle = f.knee + rotate(knee_turn, shin);
+      const double cos0 = std::clamp(dot(thigh_back, shin) / (l1 * l2), -1.0, 1.0);
+      double cos1 = std::clamp((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0);
+      if (step_limit > 0) {
+        // Delta = theta_1 - theta_f, kept within one step of the previous frame's (the knee
+        // then turns no faster than the limit) and within the band that returns to 0.
+        const double wanted = std::acos(cos1) - theta_f[std::size_t(t)];
+        const double g = gain[std::size_t(t)], q = room[std::size_t(t)];
+        const double a = std::max(low[std::size_t(t)], delta - g - q),
+                     b = std::min(high[std::size_t(t)], delta - g + q);
+        const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
+        if (limited != wanted) cos1 = std::cos(theta_f[std::size_t(t)] + limited);
+        delta = limited;
+      }
+      const Quat knee_turn = turn_between(cos0, cos1, n);
+      const Vec3 bent_ankle = f.knee + rotate_unit(knee_turn, shin);
       const Quat hip_swing = rotation_between(bent_ankle - f.hip, to_target);
       const Quat hip_global = hip_swing * f.hip_rotation;
       const Quat knee_global = hip_swing * knee_turn * f.knee_rotation;
@@ -420,7 +580,9 @@ Status FootLockJob::run() const {
       const int chain[3] = {leg.hip, leg.knee, leg.ankle};
       for (int k = 0; k < 3; ++k) {
         float* q = rotations.at(t, chain[k]);
-        Quat out = normalized(locals[k]);
+        const Quat& v = locals[k];
+        const double inv = 1 / std::sqrt(dot(v, v));  // products of unit quaternions: never 0
+        Quat out{v.w * inv, v.x * inv, v.y * inv, v.z * inv};
         if (dot(out, load_quat(q)) < 0) out = negate(out);
         store_quat(out, q);
       }

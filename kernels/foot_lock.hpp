@@ -32,6 +32,21 @@
 //   Reach. Where |T - a| > L for a planted leg, the root (the leg's top ancestor, when it carries
 //   a translation) is lowered along Y just enough for the hip to reach: a_y' = T_y +
 //   sqrt(L^2 - h^2), h the horizontal hip-target distance; by the largest drop of its legs.
+//   Knee speed. Near a straight leg the knee angle per unit of hip-target distance grows as
+//   1 / sin(theta), so a pin the filtered ankle moves away from (at a contact's end the filtered
+//   ankle already leaves: the filter spreads the lift-off in time) asks the knee to catch up
+//   with the filter in a frame or two: a pop (measured: up to 1.7x the input's peak knee speed).
+//   So the change the IK makes to the knee's interior angle, Delta(t) = theta_1(t) -
+//   theta_f(t), is kept such that the locked knee turns no faster than a limit W (the filtered
+//   motion's own peak knee speed by default, peak_knee_speed): the filter's knee turn s_f(t)
+//   per frame splits into its interior-angle part g(t) and a twist r (r^2 = s_f^2 - g^2) the IK
+//   keeps, and the IK adds Delta(t) - Delta(t-1) to the interior part, so |g + Delta(t) -
+//   Delta(t-1)| <= sqrt((W frame_time)^2 - r^2); Delta must be back to 0 on the frame after each
+//   run of IK frames (a backward pass gives the band of Delta that can still get there; the
+//   forward pass clamps the wanted Delta into it and into the step from the previous frame's).
+//   A bound on the interior angle alone let the filter's twist add to it (eval: 1.22x). Where
+//   the limit bites the ankle misses its target along the hip-target line by what the knee could
+//   not do.
 // Frames with D = 0 on every leg of a root are left bit-identical, and so is every joint that is
 // not a hip, knee or ankle of a leg (rotations) or a lowered root (translation).
 #include <cstdint>
@@ -48,9 +63,18 @@ namespace mocap {
 struct FootLockParams {
   double blend_time = 0.1;   // seconds of fade in before and fade out after each contact
   double max_reach = 0.995;  // fraction of the straight leg the IK may stretch to
+  // The knee's speed limit, rad/s (header, "Knee speed"): 0, the filtered motion's own peak
+  // knee speed (peak_knee_speed over all steps); < 0, no limit.
+  double max_knee_speed = 0;
 
   Status validate() const;
 };
+
+// The largest angular speed (rad/s) of the legs' knee rotations over the steps t-1 -> t of
+// `rotations` with counted[t] (empty: all steps), each step's speed capped by the larger of its
+// neighbouring steps' (a lone one-step spike, such as a glued T-pose frame, is not motion).
+double peak_knee_speed(RotationView rotations, std::span<const FootChain> legs, double frame_time,
+                       std::span<const std::uint8_t> counted = {});
 
 struct FootLockStats {
   int contacts = 0;        // contacts locked, over all legs
@@ -75,6 +99,10 @@ struct FootLockJob {
   // none), which lock the foot where only the toe is planted.
   std::span<const std::vector<ContactInterval>> contacts;
   std::span<const std::vector<ContactInterval>> toe_contacts;
+  // Optional, one entry per frame: 0 where the step t-1 -> t is not motion (into or out of a
+  // one-frame segment such as CMU's T-pose frame 0): left out of the knee's peak speed, and the
+  // knee's speed limit does not hold across it.
+  std::span<const std::uint8_t> counted_steps;
   FootLockStats* stats = nullptr;  // optional, written
 
   // Sizes agree, legs are hip -> knee -> ankle (-> toe) chains, no joint in two legs, one

@@ -60,7 +60,8 @@ ClipFeet detect_feet(const Clip& clip) {
   return feet;
 }
 
-Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params) {
+Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params,
+                 std::span<const std::uint8_t> counted_steps) {
   if (feet.legs.empty()) return {};
   const Skeleton& sk = *filtered.skeleton;
   const std::vector<std::uint8_t> translated = translated_joints(sk);
@@ -74,6 +75,7 @@ Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params) {
   job.translations = filtered.translation_span();
   job.legs = feet.legs;
   job.contacts = feet.contacts;
+  job.counted_steps = counted_steps;
   job.stats = &feet.stats;
   if (Status s = job.run(); !s) return s;
   feet.locked = true;
@@ -133,7 +135,16 @@ Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<S
                      std::vector<float>(filtered.translations.begin() + std::ptrdiff_t(begin * 3),
                                         filtered.translations.begin() + std::ptrdiff_t(end * 3))}});
   }
-  const Status status = lock_feet(feet, filtered);
+  // The knee's speed limit: the filtered clip's peak over the steps inside its segments (a
+  // step into CMU's T-pose frame is not motion).
+  std::vector<std::uint8_t> counted(std::size_t(filtered.frames), segments.empty() ? 1 : 0);
+  for (const Segment& s : segments)
+    for (int t = s.begin + 1; t < s.end; ++t) counted[std::size_t(t)] = 1;
+  FootLockParams params;
+  params.max_knee_speed =
+      peak_knee_speed(filtered.rotation_view(), feet.legs, filtered.frame_time, counted);
+  if (params.max_knee_speed == 0) params.max_knee_speed = -1;  // knees that never turn: no limit
+  const Status status = lock_feet(feet, filtered, params, counted);
   for (const auto& [s, values] : kept) {
     const std::size_t begin = std::size_t(s.begin) * joints;
     std::copy(values.first.begin(), values.first.end(),

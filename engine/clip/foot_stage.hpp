@@ -4,6 +4,7 @@
 // (kernels/foot_lock.hpp). Also the tally of a run, for --json and the closing line.
 #include <cstddef>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -30,7 +31,9 @@ std::vector<float> joint_positions(const Clip& clip);
 ClipFeet detect_feet(const Clip& clip);
 
 // Pins the planted feet of `filtered` (the clip detect_feet saw, filtered) in place.
-Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params = {});
+// `counted_steps` (optional, one per frame): FootLockJob's.
+Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params = {},
+                 std::span<const std::uint8_t> counted_steps = {});
 
 // lock_feet, with the frames of the segments the filter leaves as they came (one-frame segments
 // between impossible steps, kernels/motion_split.hpp: CMU's synthetic T-pose frame 0) restored

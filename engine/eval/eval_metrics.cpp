@@ -190,6 +190,7 @@ void Score::add(const Score& o) {
   speed_sq += o.speed_sq;
   speed_n += o.speed_n;
   max_error = std::max(max_error, o.max_error);
+  knee_peak_ratio = std::max(knee_peak_ratio, o.knee_peak_ratio);
   positions.add(o.positions);
 }
 
@@ -344,17 +345,25 @@ Score score_clip(const Clip& clean, const ClipGeometry& geometry, const ClipRefe
           s.max_error = std::max(s.max_error, d);
       }
   }
+  double knee_peak = 0, clean_knee_peak = 0;
   for (int j = 0; j < joints && frames > 1; ++j) {
     angular_speed(result, clean.frame_time, j, speed);
     const double* clean_speed = &reference.speeds[std::size_t(j) * std::size_t(frames - 1)];
+    const bool knee = std::any_of(geometry.feet.begin(), geometry.feet.end(),
+                                  [&](const FootChain& f) { return f.knee == j; });
     for (const Segment& seg : segments)
       if (scored(seg))
         for (int t = seg.begin; t + 1 < seg.end; ++t) {
           const double d = speed[std::size_t(t)] - clean_speed[t];
           s.speed_sq += d * d;
           s.speed_n += 1;
+          if (knee) {
+            knee_peak = std::max(knee_peak, speed[std::size_t(t)]);
+            clean_knee_peak = std::max(clean_knee_peak, clean_speed[t]);
+          }
         }
   }
+  if (clean_knee_peak > 0) s.knee_peak_ratio = knee_peak / clean_knee_peak;
 
   std::vector<float> positions, joint_positions;
   effector_positions(clean, geometry, result, positions, result_translations, &joint_positions);

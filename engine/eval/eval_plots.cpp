@@ -291,7 +291,8 @@ bool psnr_figure(const EvalResults& r, const EvalConfig& config, const std::file
                 {}};
   for (std::size_t m = 0; m < config.grids.size(); ++m) {
     const EvalMethod method = config.grids[m].method;
-    if (config.grids[m].repaired) continue;  // gaussian noise: repair changes next to nothing
+    if (config.grids[m].repaired) continue;      // gaussian noise: repair changes next to nothing
+    if (locked_twin(config.grids, m)) continue;  // --feet both: scored in the feet tables
     PlotSeries best{
         label(config.grids[m]) + " best", {}, {}, method_color(method), false, true, 1.6};
     PlotSeries automatic{

@@ -149,6 +149,10 @@ std::vector<Table> all_tables(const EvalResults& r, const EvalConfig& config) {
               pool + ")",
           [clean_skating](const Score& s) { return s.skating_mm() / clean_skating; }, 2),
       score_table(
+          r, config,
+          "Peak knee angular speed, x the clean capture's, the largest over clips (" + pool + ")",
+          [](const Score& s) { return s.knee_peak_ratio; }, 2),
+      score_table(
           r, config, "Acceleration error of the joint positions, mm/frame^2 (" + pool + ")",
           [](const Score& s) { return s.accel_error_mm(); }, 3),
       score_table(
@@ -171,6 +175,42 @@ std::vector<Table> all_tables(const EvalResults& r, const EvalConfig& config) {
           [](const Score& s) { return s.max_error; }, 3),
       best_parameter_table(r, config),
   };
+}
+
+// Per clip, the targets of foot locking (README "Feet"), automatic parameters without / with
+// locking: skating over the clean capture's contacts, x the capture's; the knees' peak angular
+// speed, x the capture's; MPJPE, x the noisy input's.
+std::vector<Table> feet_tables(const EvalResults& r, const EvalConfig& config) {
+  std::vector<Table> out;
+  for (std::size_t m = 0; m < config.grids.size(); ++m) {
+    if (!locked_twin(config.grids, m)) continue;
+    const int twin = int(m) - 1;
+    const std::size_t on_auto = config.grids[m].points.size(),
+                      off_auto = config.grids[std::size_t(twin)].points.size();
+    for (std::size_t c = 0; c < config.conditions.size(); ++c) {
+      Table t;
+      t.caption = fmt::format(
+          "Feet per clip, {} vs {} (automatic parameters), {}: skating over the clean capture's "
+          "contacts, x the capture's; peak knee angular speed, x the capture's; MPJPE, x the "
+          "noisy input's (without / with locking)",
+          label(config.grids[std::size_t(twin)]), label(config.grids[m]),
+          config.conditions[c].label());
+      t.header = {"clip", "skating", "knee peak", "MPJPE"};
+      for (std::size_t k = 0; k < r.clips.size(); ++k) {
+        const Score& off = r.results[std::size_t(twin)][off_auto][c][k].score;
+        const Score& on = r.results[m][on_auto][c][k].score;
+        const double capture = r.clips[k].reference.clean_positions.skating();
+        const double noisy = r.noisy_scores[c][k].mpjpe_mm();
+        auto pair = [](double a, double b) { return number(a, 2) + " / " + number(b, 2); };
+        t.rows.push_back(
+            {r.clips[k].name, pair(off.skating_mm() / capture, on.skating_mm() / capture),
+             pair(off.knee_peak_ratio, on.knee_peak_ratio),
+             noisy > 0 ? pair(off.mpjpe_mm() / noisy, on.mpjpe_mm() / noisy) : std::string("n/a")});
+      }
+      out.push_back(std::move(t));
+    }
+  }
+  return out;
 }
 
 std::string to_markdown(const Table& t) {
@@ -221,7 +261,8 @@ nlohmann::json score_json(const Score& s) {
           {"mpjpe_mm", json_number(s.mpjpe_mm())},
           {"jitter_mm", json_number(s.jitter_mm())},
           {"acceleration_error_mm", json_number(s.accel_error_mm())},
-          {"foot_skating_mm", json_number(s.skating_mm())}};
+          {"foot_skating_mm", json_number(s.skating_mm())},
+          {"knee_peak_speed_ratio", json_number(s.knee_peak_ratio)}};
 }
 
 nlohmann::json point_json(const ParamPoint& p) {
@@ -239,6 +280,7 @@ std::string psnr_table(const EvalResults& results, const EvalConfig& config) {
 std::string markdown_report(const EvalResults& results, const EvalConfig& config) {
   std::string out;
   for (const Table& t : all_tables(results, config)) out += to_markdown(t) + "\n";
+  for (const Table& t : feet_tables(results, config)) out += to_markdown(t) + "\n";
   return out;
 }
 
@@ -332,6 +374,7 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
     const MethodGrid& grid = config.grids[m];
     nlohmann::json mj{{"method", label(grid)},
                       {"repaired", grid.repaired},
+                      {"lock_feet", grid.lock_feet},
                       {"automatic_rule", automatic_rule(grid.method)}};
     nlohmann::json grid_json = nlohmann::json::array();
     for (std::size_t p = 0; p <= grid.points.size(); ++p) {
@@ -405,6 +448,7 @@ std::string html_report(const EvalResults& r, const EvalConfig& config,
                         f.file, escape_xml(f.caption), escape_xml(f.caption));
   html += "<h2>More scores</h2>\n";
   for (std::size_t i = 1; i < tables.size(); ++i) html += to_html(tables[i]);
+  for (const Table& t : feet_tables(r, config)) html += to_html(t);
   html +=
       "<h2>Clips</h2>\n<table>\n<tr><th>clip</th><th>frames</th><th>impossible steps "
       "(frame: joint, rad)</th><th>segments</th><th>cm per unit</th></tr>\n";

@@ -30,6 +30,31 @@ RotationSpan segment_span(std::vector<float>& rotations, int joints, const Segme
   return {rotations.data() + std::size_t(s.begin) * std::size_t(joints) * 4, s.frames(), joints};
 }
 
+// The legs, their contacts and what locking did, for report.json.
+nlohmann::json feet_json(const ClipFeet& feet) {
+  nlohmann::json legs = nlohmann::json::array();
+  for (std::size_t l = 0; l < feet.legs.size(); ++l) {
+    nlohmann::json intervals = nlohmann::json::array();
+    for (const ContactInterval& c : feet.contacts[l]) intervals.push_back({c.begin, c.end});
+    legs.push_back({{"ankle", feet.legs[l].ankle}, {"contacts", intervals}});
+  }
+  return {{"legs", legs},
+          {"locked_frames", feet.stats.locked_frames},
+          {"root_lowered_frames", feet.stats.lowered_frames}};
+}
+
+// The feet of a noisy clip: its rotations and translations on the clean clip's skeleton.
+ClipFeet noisy_feet(const Clip& clean, const std::vector<float>& rotations,
+                    const std::vector<float>& translations) {
+  Clip c;
+  c.skeleton = clean.skeleton;
+  c.frame_time = clean.frame_time;
+  c.frames = clean.frames;
+  c.rotations = rotations;
+  c.translations = translations;
+  return detect_feet(c);
+}
+
 }  // namespace
 
 std::uint64_t noise_seed(std::uint64_t seed, const std::string& clip,
@@ -95,7 +120,7 @@ EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config) {
 
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out,
-                   std::vector<float>& out_translations, nlohmann::json* resolved) {
+                   std::vector<float>& out_translations, nlohmann::json* resolved, bool lock_feet) {
   const int joints = clip.clean.joints();
   const std::vector<float>& input = repaired ? noisy.repaired : noisy.rotations;
   const std::vector<double>& sigma_hats = repaired ? noisy.repaired_sigma_hats : noisy.sigma_hats;
@@ -135,6 +160,19 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
       resolved->push_back(used);
     }
   }
+  if (!lock_feet) return {};
+  Clip filtered;
+  filtered.skeleton = clip.clean.skeleton;
+  filtered.frame_time = clip.clean.frame_time;
+  filtered.frames = clip.clean.frames;
+  filtered.rotations = std::move(out);
+  filtered.translations = std::move(out_translations);
+  ClipFeet feet = repaired ? noisy.repaired_feet : noisy.feet;
+  const Status locked = lock_feet_in_segments(feet, filtered, clip.segments);
+  out = std::move(filtered.rotations);
+  out_translations = std::move(filtered.translations);
+  if (!locked) return Status::error("foot locking: " + locked.message());
+  if (resolved) *resolved = {{"segments", *resolved}, {"feet", feet_json(feet)}};
   return {};
 }
 
@@ -191,6 +229,11 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
               estimate_noise(segment_view(noisy.repaired, clip.clean.joints(), s), noisy.garbage)
                   .sigma);
       }
+      if (config.lock_feet) {
+        noisy.feet = noisy_feet(clip.clean, noisy.rotations, noisy.translations);
+        if (config.repaired)
+          noisy.repaired_feet = noisy_feet(clip.clean, noisy.repaired, noisy.translations);
+      }
       r.noisy_scores[c][k] =
           score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
                      {noisy.rotations.data(), clip.clean.frames, clip.clean.joints()},
@@ -224,8 +267,9 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       const ParamPoint* point = t.p < grid.points.size() ? &grid.points[t.p] : nullptr;
       const EvalClip& clip = r.clips[t.k];
       TaskResult& result = r.results[t.m][t.p][t.c][t.k];
-      const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
-                                   out_translations, point ? nullptr : &result.resolved);
+      const Status s =
+          filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
+                      out_translations, point ? nullptr : &result.resolved, grid.lock_feet);
       if (!s) {
         result.error = s.message();
       } else {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/clip.hpp"
+#include "engine/clip/foot_stage.hpp"
 #include "engine/eval/eval_metrics.hpp"
 #include "engine/eval/eval_spec.hpp"
 #include "kernels/motion_split.hpp"
@@ -25,7 +26,8 @@ struct EvalConfig {
   double unit_cm = 0;  // 0 = guess per clip
   bool split_impossible = true;
   MotionSplitParams split;
-  bool repaired = false;  // some grid runs on the conditioned clips: prepare them
+  bool repaired = false;   // some grid runs on the conditioned clips: prepare them
+  bool lock_feet = false;  // some grid locks the feet: find the noisy clips' contacts
 };
 
 // One clean clip and what eval derives from it once.
@@ -53,6 +55,9 @@ struct NoisyClip {
   // are 0.3-1 rad), how many of them the pop stage flagged, how many flags fell on other samples
   // (false repairs), and how many popped samples stay that far from the clean after the stage.
   std::size_t popped = 0, pops_caught = 0, false_repairs = 0, pops_left = 0;
+  // With config.lock_feet: the legs and contacts found on the noisy clip (feet) and on the
+  // conditioned one (repaired_feet), as `clean` finds them on the clip its filter sees.
+  ClipFeet feet, repaired_feet;
 };
 inline constexpr double kPoppedAngle = 0.25;
 
@@ -113,8 +118,11 @@ Spread psnr_spread(const EvalResults& results, std::size_t m, std::size_t p, std
 // With `repaired`, on the conditioned clip: garbage joints are copied as they came and stay out
 // of nlpm's pose distance.
 // `out_translations` receives the filtered translations (sized like the clip's).
+// With `lock_feet`, the planted feet are then pinned (engine/clip/foot_stage.hpp) with the noisy
+// clip's contacts.
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out,
-                   std::vector<float>& out_translations, nlohmann::json* resolved);
+                   std::vector<float>& out_translations, nlohmann::json* resolved,
+                   bool lock_feet = false);
 
 }  // namespace mocap::engine::eval

@@ -76,7 +76,27 @@ std::string_view to_string(EvalMethod method) {
 
 std::string label(const MethodGrid& grid) {
   std::string name(to_string(grid.method));
-  return grid.repaired && grid.method != EvalMethod::automatic ? name + "+pops" : name;
+  if (grid.repaired && grid.method != EvalMethod::automatic) name += "+pops";
+  return grid.lock_feet ? name + "+feet" : name;
+}
+
+bool locked_twin(const std::vector<MethodGrid>& grids, std::size_t m) {
+  return m > 0 && m < grids.size() && grids[m].lock_feet && !grids[m - 1].lock_feet &&
+         grids[m - 1].method == grids[m].method && grids[m - 1].repaired == grids[m].repaired;
+}
+
+void apply_feet_mode(std::vector<MethodGrid>& grids, std::string_view mode) {
+  if (mode == "lock") {
+    for (MethodGrid& g : grids) g.lock_feet = true;
+  } else if (mode == "both") {
+    std::vector<MethodGrid> both;
+    for (MethodGrid& g : grids) {
+      MethodGrid locked{g.method, {}, g.repaired, true};
+      both.push_back(std::move(g));
+      both.push_back(std::move(locked));  // beside its twin in every table
+    }
+    grids = std::move(both);
+  }
 }
 
 std::string NoiseCondition::label() const {

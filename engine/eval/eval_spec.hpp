@@ -85,13 +85,24 @@ struct MethodGrid {
   // came and out of nlpm's
   // distance (what `clean` does by default); false: the spec's filter on the noisy clip.
   bool repaired = false;
+  // Foot locking after the filter (engine/clip/foot_stage.hpp, as `clean --feet lock`), with the
+  // contacts found on the noisy clip the filter saw (README "Feet").
+  bool lock_feet = false;
 };
 // One grid per method and pops mode: with_plain, the spec's filter; with_repaired, the same after
 // pop repair. `auto` runs repaired only (that is its definition).
 std::vector<MethodGrid> build_grids(const std::vector<EvalMethod>& methods,
                                     const std::vector<GridOverride>& overrides,
                                     bool with_plain = true, bool with_repaired = false);
-// "bof", or "bof+pops" for a grid after the pop stage.
+// "bof", or "bof+pops" for a grid after the pop stage, "+feet" when it locks the feet.
 std::string label(const MethodGrid& grid);
+
+// eval's --feet: off, no locking; lock, every run locks the feet; both, the grids as with off
+// plus one grid per method that locks the feet after its automatic parameters only (locking
+// does not change which grid point is best; this bounds the cost). Unknown modes are rejected by
+// the command line.
+void apply_feet_mode(std::vector<MethodGrid>& grids, std::string_view mode);
+// True for a grid that --feet both added beside grids[m - 1].
+bool locked_twin(const std::vector<MethodGrid>& grids, std::size_t m);
 
 }  // namespace mocap::engine::eval

@@ -3,10 +3,11 @@
 // angular-speed peaks and joint position error, with `clean`'s defaults (--method auto, which
 // locks the feet) against the same run with --feet off. Prints one line per clip and condition
 // (the README's "Feet" table comes from it). Checks the targets that hold on every clip (README
-// "Feet"): without noise, skating <= 1.05x the capture's at both rates; with noise, locking
-// lowers skating below --feet off. Only printed, as they do not hold on every clip: the knee's
-// peak angular speed <= 1.2x the input's (up to 1.47x measured), and with noise skating <= 1.2x
-// the capture's (up to 6.4x) and joint position error <= 0.6x the noisy input's.
+// "Feet"): without noise, skating <= 1.05x the capture's and the knees' peak angular speed <=
+// 1.2x the input's, at both rates; with noise, wherever the contacts found on the noisy input
+// cover at least half of the capture's, locking lowers skating below --feet off. Only printed,
+// as they do not hold on every clip: with noise, skating <= 1.2x the capture's and joint
+// position error <= 0.6x the noisy input's.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -246,6 +247,7 @@ TEST_P(FootSkating, CleanDefaultsKeepTheCapturesSkating) {
                 off.skating / in.skating, on.skating / in.skating, off.knee_peak / in.knee_peak,
                 on.knee_peak / in.knee_peak);
     EXPECT_LE(on.skating, 1.05 * in.skating) << data.names[i];
+    EXPECT_LE(on.knee_peak, 1.2 * in.knee_peak) << data.names[i];
     if (step == 1 && data.names[i] == "cmu_mb_02_01")
       write_figure(data.names[i], data.clips[i], unlocked[i], locked[i], feet);
   }
@@ -264,7 +266,8 @@ TEST_P(FootSkating, CleanDefaultsOnNoisyInputStayNearTheCapturesSkating) {
   const std::vector<Clip> locked = clean(inputs, ""), unlocked = clean(inputs, "off");
   std::printf(
       "%d fps, noise 0.02 rad + 0.004 body: clip, skating capture / noisy / off / lock "
-      "(file units per frame), ratio off, ratio lock, MPJPE lock / noisy\n",
+      "(file units per frame), ratio off, ratio lock, MPJPE off / lock, x the noisy input's, "
+      "capture's contact frames found on the noisy input\n",
       int(std::lround(1 / data.clips[0].frame_time)));
   for (std::size_t i = 0; i < data.clips.size(); ++i) {
     const engine::ClipFeet feet = engine::detect_feet(data.clips[i]);  // the capture's contacts
@@ -272,11 +275,27 @@ TEST_P(FootSkating, CleanDefaultsOnNoisyInputStayNearTheCapturesSkating) {
     const Scores input = score(inputs[i], feet, data.clips[i]);
     const Scores off = score(unlocked[i], feet, data.clips[i]);
     const Scores on = score(locked[i], feet, data.clips[i]);
-    std::printf("  %-14s %7.4f %7.4f %7.4f %7.4f  %5.2fx %5.2fx  mpjpe %5.2fx\n",
-                data.names[i].c_str(), capture.skating, input.skating, off.skating, on.skating,
-                off.skating / capture.skating, on.skating / capture.skating,
-                on.mpjpe / input.mpjpe);
-    EXPECT_LT(on.skating, off.skating) << data.names[i];
+    // How much of the capture's contacts the contacts found on the noisy input cover: locking
+    // can only hold what was found.
+    const engine::ClipFeet found = engine::detect_feet(inputs[i]);
+    int planted = 0, covered = 0;
+    for (std::size_t l = 0; l < feet.legs.size() && l < found.legs.size(); ++l) {
+      const auto truth = contact_mask(feet.contacts[l], inputs[i].frames),
+                 seen = contact_mask(found.contacts[l], inputs[i].frames);
+      for (int t = 0; t < inputs[i].frames; ++t) {
+        planted += truth[std::size_t(t)];
+        covered += truth[std::size_t(t)] && seen[std::size_t(t)];
+      }
+    }
+    const double coverage = planted > 0 ? double(covered) / planted : 0.0;
+    std::printf(
+        "  %-14s %7.4f %7.4f %7.4f %7.4f  %5.2fx %5.2fx  mpjpe %5.2fx %5.2fx  found %3.0f%%\n",
+        data.names[i].c_str(), capture.skating, input.skating, off.skating, on.skating,
+        off.skating / capture.skating, on.skating / capture.skating, off.mpjpe / input.mpjpe,
+        on.mpjpe / input.mpjpe, 100 * coverage);
+    if (coverage >= 0.5) {
+      EXPECT_LT(on.skating, off.skating) << data.names[i];
+    }
   }
 }
 
