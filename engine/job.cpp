@@ -25,6 +25,7 @@ struct ClipState {
   ClipConditioning conditioning;
   MotionMeasure before, after;  // what a viewer sees, as read and as written
   ClipFeet feet;                // with lock_feet: found on the input, locked on the output
+  ReviewCapture review;         // with --report: the motion before and after, for the page
 };
 
 // What this run does to the clip, kept with it in a library output.
@@ -91,13 +92,16 @@ RunSummary run_job(const Job& job) {
     make_hemisphere_continuous(item.input.rotation_span());
     MotionMeasure before;
     if (measure) before = measure_motion(item.input);
+    ReviewCapture review;
+    if (job.review) review = begin_review(item.input);
     ClipConditioning conditioning = condition_clip(settings, item.input);
     ClipState state{resolve_for_clip(settings, item.input, conditioning.garbage),
                     {},
                     std::move(conditioning),
                     std::move(before),
                     {},
-                    {}};
+                    {},
+                    std::move(review)};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
     if (feet.lock) {
@@ -135,6 +139,7 @@ RunSummary run_job(const Job& job) {
       auto& state = std::any_cast<ClipState&>(item.context);
       state.after = measure_motion(item.output, &state.before);
     }
+    if (job.review) finish_review(std::any_cast<ClipState&>(item.context).review, item.output);
     if (job.transform) {
       if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
         return item.fail(s.message());
@@ -159,8 +164,15 @@ RunSummary run_job(const Job& job) {
       automatic.add(item.name, state.resolved);
       if (measure) motion.add(item.name, state.before, state.after);
       if (feet.lock) feet.add(item.name, item.output, state.feet);
+      if (job.review) {
+        auto& review = std::any_cast<ClipState&>(item.context).review;
+        job.review->add({item.name, &item.output, &state.resolved, &state.conditioning, &state.feet,
+                         measure ? &state.before : nullptr, measure ? &state.after : nullptr},
+                        std::move(review));
+      }
     } else {
       summary.failed.push_back({item.name, item.error});
+      if (job.review) job.review->add_failure(item.name, item.error);
     }
     progress.advance(std::size_t(item.output.frames), !item.error.empty());
     item.output = {};

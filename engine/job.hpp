@@ -9,6 +9,7 @@
 #include "engine/clip_source.hpp"
 #include "engine/filter_options.hpp"
 #include "engine/filter_settings.hpp"
+#include "engine/review_report.hpp"
 #include "engine/run_summary.hpp"
 
 namespace mocap::engine {
@@ -23,6 +24,7 @@ struct Job {
   // function of the clip and its index in the source, so results do not depend on threads).
   std::function<Status(io::Clip&, std::size_t source_index)> transform;
   RunOptions run;
+  ReviewReport* review = nullptr;  // --report: each written clip goes on the review page
 };
 
 RunSummary run_job(const Job& job);
