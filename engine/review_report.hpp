@@ -31,6 +31,7 @@ inline constexpr double kReviewMaxRate = 60.0;  // Hz
 struct ReviewCapture {
   std::vector<float> positions_before;  // [F][J][3] full rate, file units; freed by finish
   std::vector<std::int16_t> samples;    // pos before, pos after, angles before, angles after
+  std::vector<unsigned char> packed;    // the samples as the page holds them (pack())
   int stride = 1, count = 0;            // samples = frames 0, stride, 2 stride, ... (count)
   double cm_per_unit = 1, position_scale = 1, angle_scale = 1;  // cm and degrees per step
   std::string units;                                            // the file unit guessed

@@ -109,7 +109,7 @@ def main():
     if attributes.get("state") != "ready":
         fail(f"the list page is not ready: {attributes} {text}")
     listed = re.findall(r'<td class="name"><a[^>]*>([^<]*)</a>', dom)
-    names = sorted(os.path.join(source, rel) for rel in expected)
+    names = sorted(expected)
     if sorted(listed) != names:
         fail(f"the page lists {len(listed)} clips, expected {len(names)}; "
              f"first differences: {sorted(set(listed) ^ set(names))[:3]}")
@@ -124,7 +124,7 @@ def main():
     if attributes.get("state") != "drawn":
         fail(f"the player did not draw clip 0: {attributes} {text}")
     shot = os.path.join(WORK, "player.png")
-    browse(chromium, index + "#clip=0", f"--screenshot={shot}", budget_ms=15000)
+    browse(chromium, index + "#clip=0&layout=side&frame=60", f"--screenshot={shot}", budget_ms=15000)
     image = Image.open(shot).convert("RGB")
     width, height = image.size
     # The 3-D view: left of the 340 px side panel, below the header and its labels, above

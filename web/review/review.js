@@ -116,20 +116,29 @@ setStatus('ready', `ready: ${clips.length} clips`, { clips: clips.length, ms: Ma
 // ---- clip data: clips/N.js calls mocapReviewClip(i, meta, base64) --------------------------
 const pending = new Map();
 window.mocapReviewClip = (i, meta, data) => {
+  const p = pending.get(i);
+  if (p) decode(meta, data).then(p.resolve, p.reject);
+};
+// engine/review_report.cpp pack(): deflate, then byte planes (low, high), then int16 steps from
+// the value one sample (J x 3 values) before.
+async function decode(meta, data) {
   const bytes = Uint8Array.from(atob(data), (ch) => ch.charCodeAt(0));
-  const q = new Int16Array(bytes.buffer);
-  const n = meta.count * meta.joints.length * 3;
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('deflate'));
+  const planes = new Uint8Array(await new Response(stream).arrayBuffer());
+  const total = planes.length / 2, row = meta.joints.length * 3;
+  const q = new Int16Array(total);
+  for (let k = 0; k < total; ++k) q[k] = (planes[k] | (planes[total + k] << 8)) + (k >= row ? q[k - row] : 0);
+  const n = meta.count * row;
   const f32 = (offset, scale) => { const out = new Float32Array(n); for (let k = 0; k < n; ++k) out[k] = q[offset + k] * scale; return out; };
   meta.pos = [f32(0, meta.position_scale), f32(n, meta.position_scale)];
   meta.ang = [f32(2 * n, meta.angle_scale), f32(3 * n, meta.angle_scale)];
-  const p = pending.get(i);
-  if (p) p.resolve(meta);
-};
+  return meta;
+}
 function loadClip(i) {
   if (!pending.has(i)) {
     let resolve, reject;
     const promise = new Promise((res, rej) => { resolve = res; reject = rej; });
-    pending.set(i, { promise, resolve });
+    pending.set(i, { promise, resolve, reject });
     const s = document.createElement('script');
     s.src = clips[i].file;
     s.onerror = () => { pending.delete(i); reject(new Error(`cannot load ${clips[i].file} (the page needs its clips/ folder next to it)`)); };

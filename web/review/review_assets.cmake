@@ -16,3 +16,6 @@ else()
 endif()
 set_source_files_properties(${CMAKE_SOURCE_DIR}/engine/review_assets.cpp PROPERTIES
   COMPILE_DEFINITIONS "${MOCAP_REVIEW_DEFINITIONS}" OBJECT_DEPENDS "${MOCAP_REVIEW_FILES}")
+# The clips' motion is deflated for the page (engine/review_report.cpp).
+find_package(ZLIB REQUIRED)
+target_link_libraries(mocap_engine PRIVATE ZLIB::ZLIB)
