@@ -139,7 +139,10 @@ RunSummary run_job(const Job& job) {
       auto& state = std::any_cast<ClipState&>(item.context);
       state.after = measure_motion(item.output, &state.before);
     }
-    if (job.review) finish_review(std::any_cast<ClipState&>(item.context).review, item.output);
+    if (job.review) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      finish_review(state.review, item.output, state.conditioning.pop_samples);
+    }
     if (job.transform) {
       if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
         return item.fail(s.message());

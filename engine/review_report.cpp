@@ -2,13 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <zlib.h>
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <zlib.h>
 
 #include "kernels/quaternion.hpp"
 
@@ -64,24 +64,25 @@ std::vector<unsigned char> pack(const std::vector<std::int16_t>& values, std::si
   return out;
 }
 
-// The decimated samples [S][J][3] of positions (converted to cm) or rotation vectors (degrees).
-std::vector<float> decimate_positions(const std::vector<float>& positions, int joints, int stride,
-                                      int count, double scale) {
-  std::vector<float> out(std::size_t(count) * std::size_t(joints) * 3);
-  for (int s = 0; s < count; ++s)
-    for (std::size_t k = 0; k < std::size_t(joints) * 3; ++k)
-      out[std::size_t(s) * std::size_t(joints) * 3 + k] = float(
-          positions[std::size_t(s) * std::size_t(stride) * std::size_t(joints) * 3 + k] * scale);
+// The samples [S][J][3] at `frames` of positions (converted to cm).
+std::vector<float> sample_positions(const std::vector<float>& positions, int joints,
+                                    const std::vector<int>& frames, double scale) {
+  const std::size_t row = std::size_t(joints) * 3;
+  std::vector<float> out(frames.size() * row);
+  for (std::size_t s = 0; s < frames.size(); ++s)
+    for (std::size_t k = 0; k < row; ++k)
+      out[s * row + k] = float(positions[std::size_t(frames[s]) * row + k] * scale);
   return out;
 }
 
-std::vector<float> decimate_angles(const io::Clip& clip, int stride, int count) {
+// Every joint's local rotation as a rotation vector in degrees, [F][J][3].
+std::vector<float> rotation_vectors(const io::Clip& clip) {
   const int J = clip.joints();
-  std::vector<float> out(std::size_t(count) * std::size_t(J) * 3);
-  for (int s = 0; s < count; ++s)
+  std::vector<float> out(std::size_t(clip.frames) * std::size_t(J) * 3);
+  for (int t = 0; t < clip.frames; ++t)
     for (int j = 0; j < J; ++j) {
-      const Vec3 v = log(load_quat(clip.rotation_view().at(s * stride, j)));
-      float* o = &out[(std::size_t(s) * std::size_t(J) + std::size_t(j)) * 3];
+      const Vec3 v = log(load_quat(clip.rotation_view().at(t, j)));
+      float* o = &out[(std::size_t(t) * std::size_t(J) + std::size_t(j)) * 3];
       o[0] = float(v.x * kDegrees);
       o[1] = float(v.y * kDegrees);
       o[2] = float(v.z * kDegrees);
@@ -177,15 +178,15 @@ ReviewCapture begin_review(const io::Clip& as_read) {
   if (!as_read.skeleton || as_read.frames <= 0) return c;
   c.positions_before = joint_positions(as_read);
   const double fps = as_read.frame_time > 0 ? 1.0 / as_read.frame_time : 30.0;
-  c.stride = std::max(1, int(std::ceil(fps / kReviewMaxRate - 1e-9)));
+  // 1 / 0.0083333 s is 120.0005 Hz: a stride of 2, not 3.
+  c.stride = std::max(1, int(std::ceil(fps / kReviewMaxRate - 0.01)));
   while ((as_read.frames + c.stride - 1) / c.stride > kReviewMaxSamples) ++c.stride;
-  c.count = (as_read.frames + c.stride - 1) / c.stride;
   c.cm_per_unit = guess_cm_per_unit(body_height(*as_read.skeleton), &c.units);
-  c.angles_before = decimate_angles(as_read, c.stride, c.count);
+  c.angles_before = rotation_vectors(as_read);
   return c;
 }
 
-void finish_review(ReviewCapture& c, const io::Clip& cleaned) {
+void finish_review(ReviewCapture& c, const io::Clip& cleaned, std::span<const std::int32_t> pops) {
   const std::vector<float> after = joint_positions(cleaned);
   const int J = cleaned.joints();
   if (c.positions_before.empty() || after.size() != c.positions_before.size()) {
@@ -206,15 +207,24 @@ void finish_review(ReviewCapture& c, const io::Clip& cleaned) {
     }
   }
   c.change_rms = std::sqrt(sum / double(after.size() / 3)) * c.cm_per_unit;
-  std::vector<float> pos_before =
-      decimate_positions(c.positions_before, J, c.stride, c.count, c.cm_per_unit);
-  std::vector<float> pos_after = decimate_positions(after, J, c.stride, c.count, c.cm_per_unit);
+  // Every stride-th frame, and every frame with a pop and the one cleaning moved most, which a
+  // stride would skip: the page shows what was repaired.
+  for (int t = 0; t < cleaned.frames; t += c.stride) c.frames.push_back(t);
+  for (std::size_t k = 0; k + 1 < pops.size(); k += 2)
+    if (pops[k] >= 0 && pops[k] < cleaned.frames) c.frames.push_back(pops[k]);
+  c.frames.push_back(c.change_max_frame);
+  std::sort(c.frames.begin(), c.frames.end());
+  c.frames.erase(std::unique(c.frames.begin(), c.frames.end()), c.frames.end());
+  c.count = int(c.frames.size());
+  std::vector<float> pos_before = sample_positions(c.positions_before, J, c.frames, c.cm_per_unit);
+  std::vector<float> pos_after = sample_positions(after, J, c.frames, c.cm_per_unit);
   c.positions_before = {};
   // One scale for both versions of a quantity, so the same value reads back the same.
   std::vector<float> positions = std::move(pos_before);
   positions.insert(positions.end(), pos_after.begin(), pos_after.end());
-  std::vector<float> angles = std::move(c.angles_before);
-  const std::vector<float> angles_after = decimate_angles(cleaned, c.stride, c.count);
+  std::vector<float> angles = sample_positions(c.angles_before, J, c.frames, 1.0);
+  const std::vector<float> angles_after =
+      sample_positions(rotation_vectors(cleaned), J, c.frames, 1.0);
   angles.insert(angles.end(), angles_after.begin(), angles_after.end());
   c.angles_before = {};
   c.samples.reserve(positions.size() + angles.size());
@@ -336,6 +346,7 @@ void ReviewReport::add(const ReviewClipInfo& info, ReviewCapture&& capture) {
     meta["frames"] = clip.frames;
     meta["stride"] = capture.stride;
     meta["count"] = capture.count;
+    meta["sample_frames"] = capture.frames;
     meta["position_scale"] = capture.position_scale;
     meta["angle_scale"] = capture.angle_scale;
     meta["encoding"] = "int16 steps, byte planes, deflate";

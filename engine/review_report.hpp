@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -32,18 +33,21 @@ struct ReviewCapture {
   std::vector<float> positions_before;  // [F][J][3] full rate, file units; freed by finish
   std::vector<std::int16_t> samples;    // pos before, pos after, angles before, angles after
   std::vector<unsigned char> packed;    // the samples as the page holds them (pack())
-  int stride = 1, count = 0;            // samples = frames 0, stride, 2 stride, ... (count)
+  int stride = 1, count = 0;            // every stride-th frame, and the frames with a pop
+  std::vector<int> frames;              // the frames sampled (count), increasing
   double cm_per_unit = 1, position_scale = 1, angle_scale = 1;  // cm and degrees per step
   std::string units;                                            // the file unit guessed
   double change_rms = 0, change_max = 0;                        // cm, all frames and joints
   int change_max_frame = 0, change_max_joint = 0;
-  std::vector<float> angles_before;  // [S][J][3] degrees (rotation vectors), decimated
+  std::vector<float> angles_before;  // [F][J][3] degrees (rotation vectors); freed by finish
 };
 
 // Split stage: the clip exactly as read.
 ReviewCapture begin_review(const io::Clip& as_read);
-// Finish stage: the clip as it will be written (after the filter and the feet).
-void finish_review(ReviewCapture& capture, const io::Clip& cleaned);
+// Finish stage: the clip as it will be written (after the filter and the feet); `pops` [N][2]
+// (frame, joint) are the frames sampled beside the stride.
+void finish_review(ReviewCapture& capture, const io::Clip& cleaned,
+                   std::span<const std::int32_t> pops);
 
 // The file unit of a skeleton, guessed from its rest-pose height (a person 1.0-2.3 m tall): cm
 // per unit, and its name ("m", "cm", "inch", ...; "unknown ..." scales the body to 170 cm).

@@ -286,13 +286,20 @@ function renderDetails(c) {
   ].join('') + '<p class="dim" style="grid-column: 1 / -1">Frames count from 1. Positions in cm; angles: the joint\'s local rotation as a rotation vector (axis × angle), x y z in degrees.</p>';
 }
 
+// The last sample at or before `frame` (samples: every stride-th frame, and the pops').
+function sampleAt(frame) {
+  const f = player.meta.sample_frames;
+  let lo = 0, hi = f.length - 1;
+  while (lo < hi) { const mid = (lo + hi + 1) >> 1; if (f[mid] <= frame) lo = mid; else hi = mid - 1; }
+  return lo;
+}
 function frameOf(t) { const m = player.meta; return Math.min(m.frames - 1, Math.max(0, Math.floor(t * m.fps + 1e-6))); }
 
 function draw() {
   if (!gfx || !player.meta) return;
   const m = player.meta;
   const frame = frameOf(player.t);
-  const sample = Math.min(m.count - 1, Math.round(frame / m.stride));
+  const sample = sampleAt(frame);
   const show = [$('show-before').checked, $('show-after').checked];
   gfx.skeletons.forEach((sk, v) => poseSkeleton(sk, m.pos[v], sample, gfx.radius, player.joint, m.garbageSet));
   // Camera: orbit around the root (after cleaning), or around where the clip starts.
@@ -329,7 +336,7 @@ function draw() {
   gfx.labels[0].hidden = !show[0];
   gfx.labels[1].hidden = !show[1];
   $('scrub').value = String(frame);
-  $('time').textContent = `frame ${frame + 1} / ${m.frames} · ${(frame / m.fps).toFixed(2)} s · ${fmt(m.fps, 0)} Hz` + (m.stride > 1 ? ` (shown at ${fmt(m.fps / m.stride, 0)} Hz)` : '');
+  $('time').textContent = `frame ${frame + 1} / ${m.frames} · ${(frame / m.fps).toFixed(2)} s · ${fmt(m.fps, 0)} Hz` + (m.stride > 1 ? ` (shown at ${fmt(m.fps / m.stride, 0)} Hz and at every pop)` : '');
   drawTimeline(frame);
   drawCurves(frame);
 }
@@ -383,7 +390,7 @@ function drawCurves(frame) {
     g.strokeStyle = colors[c]; g.globalAlpha = v === 0 ? 0.55 : 1; g.lineWidth = v === 0 ? 1 : 1.4;
     g.setLineDash(v === 0 ? [4, 3] : []);
     g.beginPath();
-    for (let s = 0; s < m.count; ++s) { const px = x(s * m.stride), py = y(m.ang[v][(s * J + j) * 3 + c]); s ? g.lineTo(px, py) : g.moveTo(px, py); }
+    for (let s = 0; s < m.count; ++s) { const px = x(m.sample_frames[s]), py = y(m.ang[v][(s * J + j) * 3 + c]); s ? g.lineTo(px, py) : g.moveTo(px, py); }
     g.stroke();
   }
   g.setLineDash([]); g.globalAlpha = 1; g.lineWidth = 1;
