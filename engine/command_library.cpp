@@ -261,6 +261,10 @@ int run_filter(const FilterCommand& command) {
       make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input);
   if (finished_before(command.output, provenance))
     return report_finished_before("filter", command.output, command.run);
+  if (!command.report_dir.empty() && shard->active())
+    return usage_error("filter",
+                       "--report writes one page from one process: run it without "
+                       "--shard or mpirun");
   Status report_error;
   const auto review = open_review_report(command.report_dir, "filter", &report_error);
   if (!report_error.ok()) return usage_error("filter", report_error.message());

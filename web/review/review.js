@@ -180,6 +180,8 @@ function makeGraphics() {
   let drag = null;
   renderer.domElement.addEventListener('pointerdown', (e) => { drag = { x: e.clientX, y: e.clientY, moved: false }; });
   window.addEventListener('pointerup', (e) => { if (drag && !drag.moved) pickJoint(e); drag = null; });
+  // The curves follow the joint under the cursor (and stay on it when the cursor leaves).
+  renderer.domElement.addEventListener('pointermove', (e) => { if (!drag) pickJoint(e); });
   window.addEventListener('pointermove', (e) => {
     if (!drag) return;
     const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
@@ -415,7 +417,7 @@ function pickJoint(e) {
   const sk = gfx.skeletons[side && e.clientX - rect.left < w ? 0 : 1];
   sk.joints.computeBoundingSphere();
   const hits = gfx.raycaster.intersectObject(sk.joints);
-  if (hits.length) { player.joint = hits[0].instanceId; $('joint').value = String(player.joint); draw(); }
+  if (hits.length && hits[0].instanceId !== player.joint) { player.joint = hits[0].instanceId; $('joint').value = String(player.joint); draw(); }
 }
 
 function tick(now) {
