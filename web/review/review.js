@@ -265,6 +265,9 @@ async function openClip(i) {
   player.joint = Math.max(0, joint);
   sel.value = String(player.joint);
   $('scrub').max = String(meta.frames - 1);
+  // Every pop, by frame: a click goes there and shows its joint's curves.
+  $('pop-list').innerHTML = meta.pops.length ? `<p><b>${meta.pops.length} pops ${c.pops_repaired ? 'repaired' : 'found'}</b> (frame, joint):<br>` +
+    meta.pops.map(([f, j]) => `<a data-frame="${f}" data-joint="${j}">${f + 1} ${esc(meta.joints[j])}</a>`).join(' ') + '</p>' : '';
   $('play').innerHTML = '&#9654;';
   draw();
   setStatus('drawn', `drawn: ${c.name}, ${meta.count} samples of ${meta.frames} frames`, { clip: i, joints: meta.joints.length });
@@ -438,6 +441,16 @@ $('scrub').addEventListener('input', () => { player.t = Number($('scrub').value)
 $('joint').addEventListener('change', () => { player.joint = Number($('joint').value); draw(); });
 for (const id of ['show-before', 'show-after', 'layout', 'follow']) $(id).addEventListener('input', draw);
 $('back').addEventListener('click', () => { location.hash = ''; });
+$('pop-list').addEventListener('click', (e) => {
+  const a = e.target.closest('a');
+  if (!a || !player.meta) return;
+  player.playing = false;
+  $('play').innerHTML = '&#9654;';
+  player.t = Number(a.dataset.frame) / player.meta.fps;
+  player.joint = Number(a.dataset.joint);
+  $('joint').value = String(player.joint);
+  draw();
+});
 function scrubTimeline(e) {
   if (!player.meta) return;
   const rect = $('timeline').getBoundingClientRect();
