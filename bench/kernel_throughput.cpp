@@ -21,11 +21,11 @@
 #include <string>
 #include <vector>
 
+#include "core/quaternion.hpp"
 #include "kernels/bilateral.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
-#include "kernels/quaternion.hpp"
 #include "kernels/simd/quat_batch.hpp"
 
 namespace {

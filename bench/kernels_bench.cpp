@@ -7,13 +7,13 @@
 #include <random>
 #include <vector>
 
+#include "core/quaternion.hpp"
 #include "kernels/bilateral.hpp"
 #include "kernels/foot_lock.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/pop_repair.hpp"
-#include "kernels/quaternion.hpp"
 #include "kernels/simd/band_geodesics.hpp"
 #include "kernels/simd/quat_batch.hpp"
 

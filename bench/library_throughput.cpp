@@ -18,24 +18,23 @@
 #include <random>
 #include <sstream>
 
+#include "core/quaternion.hpp"
 #include "io/library_writer.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 using namespace mocap;
 
-std::shared_ptr<const io::Skeleton> chain_skeleton(int joints) {
-  auto s = std::make_shared<io::Skeleton>();
+std::shared_ptr<const Skeleton> chain_skeleton(int joints) {
+  auto s = std::make_shared<Skeleton>();
   for (int j = 0; j < joints; ++j) {
     s->joint_names.push_back("joint" + std::to_string(j));
     s->parents.push_back(j == 0 ? -1 : (j - 1) / 2);  // a binary tree, like limbs off a spine
     s->offsets.push_back({0, j == 0 ? 0.0 : 10.0, 0});
-    std::vector<io::Channel> channels;
-    if (j == 0) channels = {io::Channel::Xposition, io::Channel::Yposition, io::Channel::Zposition};
-    channels.insert(channels.end(),
-                    {io::Channel::Zrotation, io::Channel::Yrotation, io::Channel::Xrotation});
+    std::vector<Channel> channels;
+    if (j == 0) channels = {Channel::Xposition, Channel::Yposition, Channel::Zposition};
+    channels.insert(channels.end(), {Channel::Zrotation, Channel::Yrotation, Channel::Xrotation});
     s->channels.push_back(channels);
     s->end_sites.push_back(std::nullopt);
   }
@@ -43,10 +42,10 @@ std::shared_ptr<const io::Skeleton> chain_skeleton(int joints) {
 }
 
 // A smooth random motion per joint (three sinusoids in the tangent space) with gaussian jitter.
-io::Clip synthetic_clip(std::mt19937_64& rng, const std::shared_ptr<const io::Skeleton>& skeleton,
-                        int frames) {
+Clip synthetic_clip(std::mt19937_64& rng, const std::shared_ptr<const Skeleton>& skeleton,
+                    int frames) {
   const int J = skeleton->joint_count();
-  io::Clip clip;
+  Clip clip;
   clip.skeleton = skeleton;
   clip.frame_time = 1.0 / 120;
   clip.frames = frames;
@@ -115,7 +114,7 @@ int main(int argc, char** argv) {
   int clips = 200, frames = 1000, joints = 31, repeat = 3;
   std::string methods = "bof,nlpm,gaussian", compressions = "none,lz4,deflate", threads = "1,2";
   std::string pops = "off";
-  std::string cli = (fs::path(argv[0]).parent_path() / ".." / "engine" / "mocap-clean").string();
+  std::string cli = (fs::path(argv[0]).parent_path() / ".." / "app" / "mocap-clean").string();
   std::string workdir = (fs::temp_directory_path() / "mocap-library-bench").string();
   app.add_option("--clips", clips, "clips in the synthetic library")->capture_default_str();
   app.add_option("--frames", frames, "frames per clip")->capture_default_str();

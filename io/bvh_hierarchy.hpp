@@ -1,8 +1,8 @@
 #pragma once
 // The HIERARCHY section of a BVH file: ROOT, JOINTs and End Sites into a Skeleton.
 // Iterative with an explicit stack, so any nesting depth is safe.
+#include "core/skeleton.hpp"
 #include "io/bvh_lexer.hpp"
-#include "io/skeleton.hpp"
 
 namespace mocap::io::bvh {
 

@@ -8,10 +8,10 @@
 #include <new>
 #include <vector>
 
+#include "core/euler.hpp"
 #include "io/bvh_hierarchy.hpp"
 #include "io/bvh_lexer.hpp"
 #include "io/library_format.hpp"
-#include "kernels/euler.hpp"
 
 namespace mocap::io {
 namespace {

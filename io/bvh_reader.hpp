@@ -16,7 +16,7 @@
 #include <string>
 #include <string_view>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 #include "io/clip_validation.hpp"
 
 namespace mocap::io {

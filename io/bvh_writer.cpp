@@ -8,8 +8,8 @@
 #include <system_error>
 #include <vector>
 
+#include "core/euler.hpp"
 #include "io/library_format.hpp"
-#include "kernels/euler.hpp"
 
 namespace mocap::io {
 namespace {

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <string>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 
 namespace mocap::io {
 

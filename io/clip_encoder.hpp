@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 #include "io/compression.hpp"
 
 namespace mocap::io {

@@ -1,8 +1,8 @@
 #include "io/clip_validation.hpp"
 
 #include <cmath>
-#include <cstdio>
 
+#include "core/format.hpp"
 #include "io/library_format.hpp"
 
 namespace mocap::io {
@@ -43,9 +43,8 @@ std::string validate_clip(const Clip& clip) {
       const double norm = std::sqrt(double(q[0]) * q[0] + double(q[1]) * q[1] +
                                     double(q[2]) * q[2] + double(q[3]) * q[3]);
       if (std::abs(norm - 1.0) > 1e-3) {
-        char text[32];
-        std::snprintf(text, sizeof text, "%.6g", norm);
-        return "rotation at " + at(clip, t, j) + " is not a unit quaternion (norm " + text + ")";
+        return "rotation at " + at(clip, t, j) + " is not a unit quaternion (norm " +
+               format("%.6g", norm) + ")";
       }
     }
   }

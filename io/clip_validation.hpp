@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 
 namespace mocap::io {
 

@@ -5,9 +5,10 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <ctime>
 #include <vector>
+
+#include "core/format.hpp"
 
 namespace mocap::io {
 
@@ -70,9 +71,8 @@ std::string skeleton_name(const Skeleton& s) {
     if (!keep) c = '_';
   }
   if (root.empty() || root == "." || root == "..") root = "skeleton";
-  char hash[9];
-  std::snprintf(hash, sizeof hash, "%08x", unsigned(fnv1a64(skeleton_canonical_bytes(s)) >> 32));
-  return root + "-" + std::to_string(s.joint_count()) + "j-" + hash;
+  const unsigned hash = unsigned(fnv1a64(skeleton_canonical_bytes(s)) >> 32);
+  return root + "-" + std::to_string(s.joint_count()) + "j-" + format("%08x", hash);
 }
 
 std::string clip_path_from_source(std::string_view source) {
@@ -106,9 +106,7 @@ std::string check_clip_path(std::string_view clip_path) {
 }
 
 std::string frame_time_range() {
-  char text[64];
-  std::snprintf(text, sizeof text, "between %g and %g s", kMinFrameTime, kMaxFrameTime);
-  return text;
+  return format("between %g and %g s", kMinFrameTime, kMaxFrameTime);
 }
 
 std::string check_clip(const Clip& clip) {
@@ -116,9 +114,7 @@ std::string check_clip(const Clip& clip) {
   if (std::string problem = check_structure(*clip.skeleton); !problem.empty())
     return "the clip's skeleton is malformed: " + problem;
   if (!valid_frame_time(clip.frame_time)) {
-    char text[32];
-    std::snprintf(text, sizeof text, "%g", clip.frame_time);
-    return "frame_time must be " + frame_time_range() + ", got " + text;
+    return "frame_time must be " + frame_time_range() + ", got " + format("%g", clip.frame_time);
   }
   if (clip.frames < 0) return "frames must be >= 0, got " + std::to_string(clip.frames);
   const std::size_t samples = std::size_t(clip.frames) * std::size_t(clip.joints());

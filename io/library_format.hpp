@@ -17,8 +17,8 @@
 #include <string>
 #include <string_view>
 
-#include "io/clip.hpp"
-#include "io/skeleton.hpp"
+#include "core/clip.hpp"
+#include "core/skeleton.hpp"
 
 namespace mocap::io {
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 #include "io/clip_encoder.hpp"
 #include "io/library_format.hpp"
 

@@ -6,7 +6,7 @@
 #include <memory>
 #include <string>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 #include "io/clip_encoder.hpp"
 #include "io/compression.hpp"
 #include "io/library_format.hpp"

@@ -1,9 +1,9 @@
 #include "kernels/bilateral.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <string>
 
+#include "core/format.hpp"
 #include "kernels/simd/bilateral_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
@@ -11,12 +11,6 @@ namespace mocap {
 namespace {
 
 constexpr double kMaxWindow = 1e6;
-
-std::string format(const char* pattern, double a, double b = 0) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, pattern, a, b);
-  return buffer;
-}
 
 }  // namespace
 

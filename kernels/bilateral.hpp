@@ -9,11 +9,11 @@
 #include <span>
 #include <string_view>
 
+#include "core/status.hpp"
 #include "kernels/boundary.hpp"
 #include "kernels/implementation.hpp"
 #include "kernels/lee_shin.hpp"
 #include "kernels/motion_io.hpp"
-#include "kernels/status.hpp"
 
 namespace mocap {
 

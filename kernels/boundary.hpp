@@ -6,8 +6,8 @@
 #include <string_view>
 #include <vector>
 
-#include "kernels/quaternion.hpp"
-#include "kernels/tensor.hpp"
+#include "core/quaternion.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <map>
 
-#include "kernels/format.hpp"
+#include "core/format.hpp"
 
 namespace mocap {
 namespace {

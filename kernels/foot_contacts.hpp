@@ -20,9 +20,9 @@
 #include <utility>
 #include <vector>
 
-#include "kernels/quaternion.hpp"
-#include "kernels/status.hpp"
-#include "kernels/tensor.hpp"
+#include "core/quaternion.hpp"
+#include "core/status.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

@@ -38,10 +38,10 @@
 #include <span>
 #include <vector>
 
+#include "core/quaternion.hpp"
+#include "core/status.hpp"
+#include "core/tensor.hpp"
 #include "kernels/foot_contacts.hpp"
-#include "kernels/quaternion.hpp"
-#include "kernels/status.hpp"
-#include "kernels/tensor.hpp"
 
 namespace mocap {
 

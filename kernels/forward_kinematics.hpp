@@ -12,9 +12,9 @@
 #include <cstdint>
 #include <span>
 
-#include "kernels/quaternion.hpp"
-#include "kernels/status.hpp"
-#include "kernels/tensor.hpp"
+#include "core/quaternion.hpp"
+#include "core/status.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 
+#include "core/quaternion.hpp"
 #include "kernels/median.hpp"
 #include "kernels/noise_estimate.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap {
 

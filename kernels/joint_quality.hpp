@@ -19,7 +19,7 @@
 #include <string_view>
 #include <vector>
 
-#include "kernels/tensor.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
+#include "core/format.hpp"
 #include "kernels/lee_shin.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/simd/lee_shin_simd.hpp"
@@ -106,12 +106,6 @@ void steady_state_smooth(const SteadyState& s, std::span<const double> y, std::s
     smoothed = filtered[t] + s.smoother_gain * (smoothed - kF * filtered[t]);
     out[t] = smoothed.p;
   }
-}
-
-std::string format(const char* pattern, double a) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, pattern, a);
-  return buffer;
 }
 
 }  // namespace

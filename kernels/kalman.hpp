@@ -16,10 +16,10 @@
 #include <span>
 #include <vector>
 
+#include "core/status.hpp"
 #include "kernels/boundary.hpp"
 #include "kernels/implementation.hpp"
 #include "kernels/motion_io.hpp"
-#include "kernels/status.hpp"
 
 namespace mocap {
 

@@ -7,8 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/quaternion.hpp"
 #include "kernels/boundary.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap {
 

@@ -1,9 +1,9 @@
 #include "kernels/linear_filter.hpp"
 
 #include <cmath>
-#include <cstdio>
 #include <string>
 
+#include "core/format.hpp"
 #include "kernels/simd/lee_shin_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
@@ -12,12 +12,6 @@ namespace {
 
 // A Gaussian reach beyond this many frames is a parameter mistake, not a filter.
 constexpr double kMaxWindow = 1e6;
-
-std::string format(const char* pattern, double a, double b = 0) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, pattern, a, b);
-  return buffer;
-}
 
 }  // namespace
 

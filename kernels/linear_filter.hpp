@@ -4,12 +4,12 @@
 // carry them get the same mask (spec "Translations").
 #include <span>
 
+#include "core/status.hpp"
 #include "kernels/boundary.hpp"
 #include "kernels/implementation.hpp"
 #include "kernels/lee_shin.hpp"
 #include "kernels/linear_masks.hpp"
 #include "kernels/motion_io.hpp"
-#include "kernels/status.hpp"
 
 namespace mocap {
 

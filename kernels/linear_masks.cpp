@@ -1,20 +1,14 @@
 #include "kernels/linear_masks.hpp"
+#include "core/format.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <complex>
-#include <cstdio>
 
 namespace mocap {
 namespace {
 
 constexpr double kPiD = 3.14159265358979323846;
-
-std::string format(const char* pattern, double a, double b = 0, double c = 0) {
-  char buffer[256];
-  std::snprintf(buffer, sizeof buffer, pattern, a, b, c);
-  return buffer;
-}
 
 void normalise(std::vector<double>& mask) {
   double sum = 0;

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "kernels/quaternion.hpp"
+#include "core/quaternion.hpp"
 
 namespace mocap {
 namespace {

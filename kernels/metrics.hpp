@@ -3,7 +3,7 @@
 // ground truth, and the angular speed profile of one joint.
 #include <span>
 
-#include "kernels/tensor.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

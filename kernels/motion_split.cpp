@@ -2,22 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 
-#include "kernels/quaternion.hpp"
+#include "core/format.hpp"
+#include "core/quaternion.hpp"
 
 namespace mocap {
 
 Status MotionSplitParams::validate() const {
-  char buffer[160];
-  if (!(max_speed > 0) || !std::isfinite(max_speed)) {
-    std::snprintf(buffer, sizeof buffer, "max speed must be > 0 rad/s, got %g", max_speed);
-    return Status::error(buffer);
-  }
-  if (!(max_step > 0) || !std::isfinite(max_step)) {
-    std::snprintf(buffer, sizeof buffer, "max step must be > 0 rad, got %g", max_step);
-    return Status::error(buffer);
-  }
+  if (!(max_speed > 0) || !std::isfinite(max_speed))
+    return Status::error(format("max speed must be > 0 rad/s, got %g", max_speed));
+  if (!(max_step > 0) || !std::isfinite(max_step))
+    return Status::error(format("max step must be > 0 rad, got %g", max_step));
   return {};
 }
 
@@ -49,6 +44,23 @@ std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep
   }
   if (begin < frames) segments.push_back({begin, frames});
   return segments;
+}
+
+std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
+                                     std::span<const std::uint8_t> skip) {
+  const double limit = MotionSplitParams{}.step_threshold(frame_time);
+  std::vector<ImpossibleStep> steps;
+  for (int t = 0; t + 1 < rotations.frames; ++t)
+    for (int j = 0; j < rotations.joints; ++j) {
+      if (!skip.empty() && skip[std::size_t(j)]) continue;
+      const double angle =
+          geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
+      if (angle > limit) {
+        steps.push_back({t, j, angle});
+        break;
+      }
+    }
+  return split_segments(rotations.frames, steps);
 }
 
 }  // namespace mocap

@@ -14,10 +14,12 @@
 // eval's impulse pops (at most 1 rad). max_step caps the threshold at low frame rates, where
 // max_speed * frame_time would exceed pi and nothing could ever be flagged.
 // Sign flips of the quaternion (q vs -q) are not steps: the geodesic angle ignores them.
+#include <cstdint>
+#include <span>
 #include <vector>
 
-#include "kernels/status.hpp"
-#include "kernels/tensor.hpp"
+#include "core/status.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 
@@ -49,5 +51,11 @@ std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double
 // The segments of [0, frames) cut after each step's frame (one segment when there is none;
 // none for an empty clip).
 std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps);
+
+// Frames [begin, end) between steps that no joint can make (split_segments above), over the
+// joints that `skip` (empty, or one entry per joint) does not mark: flipping joints make such
+// steps all the time without being motion.
+std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
+                                     std::span<const std::uint8_t> skip);
 
 }  // namespace mocap

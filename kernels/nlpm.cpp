@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 #include <vector>
 
+#include "core/format.hpp"
 #include "kernels/simd/nlpm_simd.hpp"
 #include "kernels/translation_filter.hpp"
 
@@ -16,12 +16,6 @@ namespace {
 // memory ((chunk + 2P + 2K) x J_d samples at a time).
 constexpr long kChunkFrames = 16 * kNlpmAnchorFrames;
 static_assert(kChunkFrames % kNlpmAnchorFrames == 0);
-
-std::string number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%g", value);
-  return buffer;
-}
 
 // The translations of io's slice (nlpm.hpp, "Translations"): the Gaussian of
 // translation_sigma_t frames on the joints with position channels, a copy elsewhere (and
@@ -197,10 +191,11 @@ Status NlpmParams::validate() const {
                          "], got " + std::to_string(patch_radius));
   if (!(h >= 0) || !std::isfinite(h))
     return Status::error(
-        "h must be a finite angle >= 0 rad (0 = derive it from the noise level), got " + number(h));
+        "h must be a finite angle >= 0 rad (0 = derive it from the noise level), got " +
+        format("%g", h));
   if (!(range_sigma >= 0) || !std::isfinite(range_sigma))
     return Status::error("range_sigma must be a finite angle >= 0 rad (0 = off), got " +
-                         number(range_sigma));
+                         format("%g", range_sigma));
   if (range_sigma > 0 && space != NlpmSpace::tangent)
     return Status::error(
         "range_sigma > 0 needs space tangent (the log space is the paper's, "
@@ -209,7 +204,7 @@ Status NlpmParams::validate() const {
   if (!(translation_sigma_t >= 0) || !(translation_sigma_t <= kNlpmMaxRadius))
     return Status::error("translation_sigma_t must be in [0, " + std::to_string(kNlpmMaxRadius) +
                          "] frames (0 = translations unchanged), got " +
-                         number(translation_sigma_t));
+                         format("%g", translation_sigma_t));
   return {};
 }
 
@@ -227,7 +222,7 @@ std::vector<int> nlpm_distance_joints(std::span<const std::uint8_t> mask, int jo
 Status NlpmJob::validate() const {
   if (Status s = params.validate(); !s) return s;
   if (!(params.h > 0))
-    return Status::error("h must be > 0 rad to run nlpm, got " + number(params.h) +
+    return Status::error("h must be > 0 rad to run nlpm, got " + format("%g", params.h) +
                          " (derive it from the clip's noise level first)");
   if (Status s = io.validate(); !s) return s;
   if (implementation != Implementation::fast && implementation != Implementation::reference)

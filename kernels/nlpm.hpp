@@ -17,7 +17,7 @@
 //     q'[t][j]  = q[t][j] Exp( sum_s w_j(t,s) Log(q[t][j]^-1 q[s][j]) / sum_s w_j(t,s) )
 //
 // range_sigma = 0 stays the default: on clean synthetic motion with clean f the term trades
-// variance for bias and loses (tests/nlpm_test.cpp, NlpmRange.* print the measurements).
+// variance for bias and loses (tests/kernels/nlpm_test.cpp, NlpmRange.* print the measurements).
 //
 // Translations (spec "Translations"; its first version's pose-weighted mean of p[s] is withdrawn):
 // a Gaussian of translation_sigma_t frames along time, the same for every frame,
@@ -39,11 +39,11 @@
 #include <span>
 #include <vector>
 
+#include "core/status.hpp"
 #include "kernels/boundary.hpp"
 #include "kernels/implementation.hpp"
 #include "kernels/motion_io.hpp"
 #include "kernels/pose_distance.hpp"
-#include "kernels/status.hpp"
 
 namespace mocap {
 

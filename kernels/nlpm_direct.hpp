@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <span>
 
+#include "core/status.hpp"
 #include "kernels/motion_io.hpp"
 #include "kernels/nlpm.hpp"
-#include "kernels/status.hpp"
 
 namespace mocap {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "core/quaternion.hpp"
 #include "kernels/median.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap {
 

@@ -11,7 +11,7 @@
 #include <cstdint>
 #include <span>
 
-#include "kernels/tensor.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

@@ -2,20 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <random>
 #include <string>
 
-#include "kernels/quaternion.hpp"
+#include "core/format.hpp"
+#include "core/quaternion.hpp"
 
 namespace mocap {
 namespace {
-
-std::string number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%g", value);
-  return buffer;
-}
 
 // Uniform in [0, 1) from the top 53 bits: every double of the form k / 2^53.
 double uniform(std::mt19937_64& rng) {
@@ -56,17 +50,17 @@ void perturb(float* sample, Vec3 n) {
 Status GaussianNoise::validate() const {
   if (!(sigma >= 0) || !std::isfinite(sigma))
     return Status::error("gaussian noise sigma must be a finite angle >= 0 rad, got " +
-                         number(sigma));
+                         format("%g", sigma));
   return {};
 }
 
 Status ImpulseNoise::validate() const {
   if (!(rate >= 0 && rate <= 1))
-    return Status::error("impulse noise rate must be in [0, 1], got " + number(rate));
+    return Status::error("impulse noise rate must be in [0, 1], got " + format("%g", rate));
   if (!(min_angle >= 0 && min_angle <= max_angle && max_angle <= kPi))
     return Status::error(
         "impulse noise angles must satisfy 0 <= min_angle <= max_angle <= pi, got [" +
-        number(min_angle) + ", " + number(max_angle) + "]");
+        format("%g", min_angle) + ", " + format("%g", max_angle) + "]");
   return {};
 }
 

@@ -11,8 +11,8 @@
 #include <cstdint>
 #include <span>
 
-#include "kernels/status.hpp"
-#include "kernels/tensor.hpp"
+#include "core/status.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap {
 

@@ -2,24 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "core/format.hpp"
+#include "core/quaternion.hpp"
 #include "kernels/median.hpp"
-#include "kernels/quaternion.hpp"
 #include "kernels/simd/pop_residuals_simd.hpp"
 
 namespace mocap {
 namespace {
-
-std::string format(const char* pattern, double value) {
-  char buffer[160];
-  std::snprintf(buffer, sizeof buffer, pattern, value);
-  return buffer;
-}
 
 using pop_detail::BlockFit;
 using pop_detail::kChartReach;

@@ -22,7 +22,7 @@
 //   local scale): a pop stands out from neighbours that a quadratic fits well, whereas real
 //   motion that starts or stops abruptly leaves its neighbours badly fitted too. floor = 0.2 rad
 //   sits below the spec's smallest pop (0.3 rad). Measured on the CMU clips (300 frames each,
-//   tests/pop_repair_test.cpp), residual / fit error of the spec's pops: 0.5% below 6.4, 1%
+//   tests/kernels/pop_repair_test.cpp), residual / fit error of the spec's pops: 0.5% below 6.4, 1%
 //   below 9.9; of the clean samples that pass the first test: half below 6.1 at 120 fps, three
 //   quarters below 6.1 at 30 fps.
 // Repair: each maximal run of flagged samples is replaced by slerp between the nearest unflagged
@@ -41,10 +41,10 @@
 #include <span>
 #include <vector>
 
+#include "core/quaternion.hpp"
+#include "core/status.hpp"
 #include "kernels/implementation.hpp"
 #include "kernels/motion_io.hpp"
-#include "kernels/quaternion.hpp"
-#include "kernels/status.hpp"
 
 namespace mocap {
 

@@ -10,9 +10,9 @@
 #include <string_view>
 #include <vector>
 
+#include "core/quaternion.hpp"
+#include "core/tensor.hpp"
 #include "kernels/boundary.hpp"
-#include "kernels/quaternion.hpp"
-#include "kernels/tensor.hpp"
 
 namespace mocap {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "kernels/quaternion.hpp"
+#include "core/quaternion.hpp"
 
 namespace mocap {
 namespace {

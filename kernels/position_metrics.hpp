@@ -17,8 +17,8 @@
 #include <span>
 #include <vector>
 
+#include "core/tensor.hpp"
 #include "kernels/foot_contacts.hpp"
-#include "kernels/tensor.hpp"
 
 namespace mocap {
 

@@ -4,9 +4,9 @@
 // Euclidean analogue of the rotations' boundary mode.
 #include <span>
 
+#include "core/quaternion.hpp"
 #include "kernels/boundary.hpp"
 #include "kernels/lee_shin.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap {
 

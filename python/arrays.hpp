@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "kernels/tensor.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap::python {
 
@@ -40,7 +40,7 @@ inline TranslationView translation_view(const Borrowed& b) {
 }
 
 // Why `rotations` cannot go into a kernel, in the words of engine::check_clip_values (which needs
-// an io::Clip, that is a copy; joints are named by index as for bare arrays): "NaN in rotations
+// an Clip, that is a copy; joints are named by index as for bare arrays): "NaN in rotations
 // at frame 3, joint '1'", "... is not a unit quaternion (norm 2)"; "" when they can.
 std::string check_rotation_values(RotationView rotations);
 

@@ -1,8 +1,8 @@
 // The `mocap_clean` Python module: the engine's filters, pop stage, noise estimate and models,
 // metrics, forward kinematics and BVH reader/writer on numpy arrays. Every filter runs the
-// per-clip path of `mocap-clean clean` (engine/job.cpp: value checks, sign continuity,
+// per-clip path of `mocap-clean clean` (engine/run/job.cpp: value checks, sign continuity,
 // conditioning, resolve_for_clip, plan_shards, run_shard), with its parameters parsed by the
-// CLI's own option definitions (engine/filter_options.cpp): same names, defaults, checks and
+// CLI's own option definitions (app/filter_options.cpp): same names, defaults, checks and
 // messages, and the same bits.
 #include <fmt/core.h>
 #include <pybind11/numpy.h>
@@ -22,24 +22,24 @@
 #include <utility>
 #include <vector>
 
-#include "engine/clip_checks.hpp"
-#include "engine/clip_conditioning.hpp"
-#include "engine/commands.hpp"
-#include "engine/filter_options.hpp"
-#include "engine/filter_settings.hpp"
-#include "engine/foot_stage.hpp"
-#include "engine/pipeline.hpp"
-#include "engine/version.hpp"
+#include "app/commands.hpp"
+#include "app/filter_options.hpp"
+#include "core/clip.hpp"
+#include "core/quaternion.hpp"
+#include "core/version.hpp"
+#include "engine/clip/clip_checks.hpp"
+#include "engine/clip/clip_conditioning.hpp"
+#include "engine/clip/filter_settings.hpp"
+#include "engine/clip/foot_stage.hpp"
+#include "engine/run/pipeline.hpp"
 #include "io/bvh_reader.hpp"
 #include "io/bvh_writer.hpp"
-#include "io/clip.hpp"
 #include "kernels/forward_kinematics.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/metrics.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/position_metrics.hpp"
-#include "kernels/quaternion.hpp"
 #include "python/arrays.hpp"
 
 namespace mocap::python {
@@ -61,7 +61,7 @@ FilterSettings parse_settings(const std::string& method, const Options& options)
   FilterOptions filter;
   filter.add_to(app, method);
   engine::RunOptions run;
-  run.add_to(app);
+  engine::add_run_options(app, run);
   std::vector<std::string> args;
   for (const auto& [name, value] : options)
     args.push_back(value.empty() ? "--" + name : "--" + name + "=" + value);
@@ -80,17 +80,16 @@ FilterSettings parse_settings(const std::string& method, const Options& options)
 // the root and the others its children (no legs: feet are not locked); every joint carries
 // rotation channels, and position channels when translations are given (the
 // engine filters the translations of joints with position channels).
-std::shared_ptr<const io::Skeleton> array_skeleton(int joints, bool translated) {
-  auto s = std::make_shared<io::Skeleton>();
+std::shared_ptr<const Skeleton> array_skeleton(int joints, bool translated) {
+  auto s = std::make_shared<Skeleton>();
   for (int j = 0; j < joints; ++j) {
     s->joint_names.push_back(std::to_string(j));
     // One root (the library and BVH checks refuse a second), the others its children.
     s->parents.push_back(j == 0 ? -1 : 0);
     s->offsets.push_back({});
-    std::vector<io::Channel> channels;
-    if (translated)
-      channels = {io::Channel::Xposition, io::Channel::Yposition, io::Channel::Zposition};
-    for (io::Channel c : {io::Channel::Zrotation, io::Channel::Xrotation, io::Channel::Yrotation})
+    std::vector<Channel> channels;
+    if (translated) channels = {Channel::Xposition, Channel::Yposition, Channel::Zposition};
+    for (Channel c : {Channel::Zrotation, Channel::Xrotation, Channel::Yrotation})
       channels.push_back(c);
     s->channels.push_back(channels);
     s->end_sites.push_back(std::nullopt);
@@ -106,7 +105,7 @@ void check_frame_time(double frame_time) {
 
 // What the caller passed: a Motion, or bare arrays (then the answer is arrays too).
 struct ClipInput {
-  io::Clip clip;  // the engine's private copy: the clean path changes signs and repairs pops
+  Clip clip;  // the engine's private copy: the clean path changes signs and repairs pops
   bool motion = false, translations = false, scalar_first = true, float64 = false;
 };
 
@@ -114,13 +113,13 @@ ClipInput clip_input(py::handle data, py::handle translations, std::optional<dou
                      bool scalar_first) {
   ClipInput in;
   in.scalar_first = scalar_first;
-  if (py::isinstance<io::Clip>(data)) {
+  if (py::isinstance<Clip>(data)) {
     if (!translations.is_none())
       throw py::value_error("translations come from the Motion; pass them only with arrays");
     if (frame_time)
       throw py::value_error("frame_time comes from the Motion; pass it only with arrays");
     in.motion = true;
-    in.clip = data.cast<const io::Clip&>();
+    in.clip = data.cast<const Clip&>();
     return in;
   }
   int frames = 0, joints = 0;
@@ -146,14 +145,14 @@ ClipInput clip_input(py::handle data, py::handle translations, std::optional<dou
 }
 
 struct Outcome {
-  io::Clip output;
+  Clip output;
   engine::ResolvedSettings resolved;
   engine::ClipConditioning conditioning;
 };
 
-// The split and process stages of engine/job.cpp's run_job for one clip, with the shards run in
+// The split and process stages of engine/run/job.cpp's run_job for one clip, with the shards run in
 // parallel on `threads` workers (0: all cores). Called without the GIL.
-Outcome run_clip(const FilterSettings& settings, io::Clip input, int threads) {
+Outcome run_clip(const FilterSettings& settings, Clip input, int threads) {
   Outcome out;
   const std::string prefix = input.source.empty() ? "" : input.source + ": ";
   if (std::string why = engine::check_clip_values(input); !why.empty())
@@ -199,7 +198,7 @@ py::object json_to_python(const nlohmann::json& j) {
 // What the engine did to the clip: the method it ran (auto: the one it chose) and its resolved
 // parameters, the estimated noise, pops and garbage joints.
 py::dict describe(const Outcome& o) {
-  const io::Clip& clip = o.output;
+  const Clip& clip = o.output;
   py::dict info;
   info["method"] = std::string(engine::to_string(o.resolved.settings.method));
   info["parameters"] = json_to_python(o.resolved.settings.to_json());
@@ -262,7 +261,7 @@ py::object run_filter(const std::string& method, py::handle data, Options option
   py::object info = always_info || c.return_info ? py::object(describe(outcome)) : py::none();
   py::object result;
   if (in.motion) {
-    result = py::cast(std::make_shared<io::Clip>(std::move(outcome.output)));
+    result = py::cast(std::make_shared<Clip>(std::move(outcome.output)));
   } else {
     const int F = outcome.output.frames, J = outcome.output.joints();
     py::array rotations =
@@ -324,10 +323,10 @@ py::array on_rotations(py::handle rotations, bool scalar_first, bool inplace, Fn
   return adopt(std::move(values), F, J, 4, scalar_first, float64);
 }
 
-std::shared_ptr<io::Clip> make_motion(std::shared_ptr<io::Skeleton> skeleton, py::handle rotations,
-                                      py::handle translations, double frame_time, bool scalar_first,
-                                      const std::string& source) {
-  auto clip = std::make_shared<io::Clip>();
+std::shared_ptr<Clip> make_motion(std::shared_ptr<Skeleton> skeleton, py::handle rotations,
+                                  py::handle translations, double frame_time, bool scalar_first,
+                                  const std::string& source) {
+  auto clip = std::make_shared<Clip>();
   int F = 0, J = 0;
   copy_into(rotations, 4, scalar_first, "rotations", clip->rotations, F, J);
   if (J != skeleton->joint_count())
@@ -362,7 +361,7 @@ py::array tensor_view(py::object self, std::vector<float>& values, int frames, i
                             values.empty() ? &empty : values.data(), self);
 }
 
-void assign_tensor(io::Clip& clip, std::vector<float>& target, py::handle value, int channels,
+void assign_tensor(Clip& clip, std::vector<float>& target, py::handle value, int channels,
                    const char* what) {
   std::vector<float> values;
   int F = 0, J = 0;
@@ -433,15 +432,15 @@ PYBIND11_MODULE(mocap_clean, m) {
       "gaussian, butterworth, moving_mean, kalman, auto), the pop stage, garbage-joint "
       "classification, the noise estimate and models, metrics, forward kinematics and BVH I/O. "
       "Results are bit-identical to `mocap-clean clean` with the same parameters.";
-  m.attr("__version__") = std::string(engine::kVersion);
+  m.attr("__version__") = std::string(mocap::kVersion);
 
-  py::class_<io::Skeleton, std::shared_ptr<io::Skeleton>>(
+  py::class_<Skeleton, std::shared_ptr<Skeleton>>(
       m, "Skeleton", "A BVH hierarchy: joints in file order (parents before children).")
       .def(py::init([](std::vector<std::string> names, std::vector<int> parents,
                        py::array_t<double, py::array::c_style | py::array::forcecast> offsets,
                        std::vector<std::string> channels,
                        std::optional<std::vector<std::optional<std::array<double, 3>>>> end_sites) {
-             auto s = std::make_shared<io::Skeleton>();
+             auto s = std::make_shared<Skeleton>();
              const std::size_t J = names.size();
              if (offsets.ndim() != 2 || offsets.shape(1) != 3 || std::size_t(offsets.shape(0)) != J)
                throw py::value_error(fmt::format("offsets must have shape ({}, 3)", J));
@@ -450,13 +449,13 @@ PYBIND11_MODULE(mocap_clean, m) {
              for (std::size_t j = 0; j < J; ++j)
                s->offsets.push_back({offsets.at(j, 0), offsets.at(j, 1), offsets.at(j, 2)});
              for (const std::string& list : channels) {
-               std::vector<io::Channel> parsed;
+               std::vector<Channel> parsed;
                std::size_t at = 0;
                while (at < list.size()) {
                  std::size_t end = list.find(' ', at);
                  if (end == std::string::npos) end = list.size();
                  if (end > at) {
-                   const auto c = io::parse_channel(std::string_view(list).substr(at, end - at));
+                   const auto c = parse_channel(std::string_view(list).substr(at, end - at));
                    if (!c) throw py::value_error("unknown channel '" + list.substr(at, end - at) + "'");
                    parsed.push_back(*c);
                  }
@@ -471,7 +470,7 @@ PYBIND11_MODULE(mocap_clean, m) {
              } else {
                s->end_sites.assign(J, std::nullopt);
              }
-             if (std::string why = io::check_structure(*s); !why.empty()) throw py::value_error(why);
+             if (std::string why = check_structure(*s); !why.empty()) throw py::value_error(why);
              return s;
            }),
            py::arg("joint_names"), py::arg("parents"), py::arg("offsets"), py::arg("channels"),
@@ -480,12 +479,12 @@ PYBIND11_MODULE(mocap_clean, m) {
            "a root, offsets (J, 3), channels per joint as BVH lists ('Zrotation Xrotation "
            "Yrotation'), end_sites per joint None or an (x, y, z) offset.")
       .def_property_readonly(
-          "joint_names", [](const io::Skeleton& s) { return s.joint_names; }, "Joint names, in file order.")
+          "joint_names", [](const Skeleton& s) { return s.joint_names; }, "Joint names, in file order.")
       .def_property_readonly(
-          "parents", [](const io::Skeleton& s) { return s.parents; }, "Parent index per joint (-1: root).")
+          "parents", [](const Skeleton& s) { return s.parents; }, "Parent index per joint (-1: root).")
       .def_property_readonly(
           "offsets",
-          [](const io::Skeleton& s) {
+          [](const Skeleton& s) {
             py::array_t<double> a({py::ssize_t(s.offsets.size()), py::ssize_t(3)});
             for (std::size_t j = 0; j < s.offsets.size(); ++j) {
               a.mutable_at(j, 0) = s.offsets[j].x;
@@ -497,7 +496,7 @@ PYBIND11_MODULE(mocap_clean, m) {
           "OFFSET of each joint, (J, 3) float64 (a copy).")
       .def_property_readonly(
           "channels",
-          [](const io::Skeleton& s) {
+          [](const Skeleton& s) {
             std::vector<std::string> lists;
             for (int j = 0; j < s.joint_count(); ++j) lists.push_back(s.channel_list(j));
             return lists;
@@ -505,7 +504,7 @@ PYBIND11_MODULE(mocap_clean, m) {
           "BVH channel list of each joint, e.g. 'Zrotation Xrotation Yrotation'.")
       .def_property_readonly(
           "end_sites",
-          [](const io::Skeleton& s) {
+          [](const Skeleton& s) {
             py::list out;
             for (const auto& e : s.end_sites)
               out.append(e ? py::object(py::make_tuple(e->x, e->y, e->z)) : py::none());
@@ -514,18 +513,18 @@ PYBIND11_MODULE(mocap_clean, m) {
           "Per joint: the offset of its End Site, or None.")
       .def_property_readonly(
           "translated_joints",
-          [](const io::Skeleton& s) {
+          [](const Skeleton& s) {
             std::vector<bool> out;
             for (int j = 0; j < s.joint_count(); ++j) out.push_back(s.has_translation(j));
             return out;
           },
           "Per joint: True when it carries position channels.")
-      .def("__len__", &io::Skeleton::joint_count, "Number of joints.")
-      .def("__repr__", [](const io::Skeleton& s) {
+      .def("__len__", &Skeleton::joint_count, "Number of joints.")
+      .def("__repr__", [](const Skeleton& s) {
         return fmt::format("<mocap_clean.Skeleton: {} joints>", s.joint_count());
       });
 
-  py::class_<io::Clip, std::shared_ptr<io::Clip>>(
+  py::class_<Clip, std::shared_ptr<Clip>>(
       m, "Motion",
       "A clip: skeleton, rotations (F, J, 4) float32 wxyz, translations (F, J, 3) float32 (joints "
       "without position channels hold their offset), frame_time in seconds.")
@@ -538,23 +537,23 @@ PYBIND11_MODULE(mocap_clean, m) {
       .def_property(
           "rotations",
           [](py::object self) {
-            auto& c = self.cast<io::Clip&>();
+            auto& c = self.cast<Clip&>();
             return tensor_view(self, c.rotations, c.frames, c.joints(), 4);
           },
-          [](io::Clip& c, py::handle v) { assign_tensor(c, c.rotations, v, 4, "rotations"); },
+          [](Clip& c, py::handle v) { assign_tensor(c, c.rotations, v, 4, "rotations"); },
           "Local joint rotations, (F, J, 4) float32 (w, x, y, z): a writable view of the Motion's "
           "own memory (no copy). Assigning copies values into it (the shape must stay).")
       .def_property(
           "translations",
           [](py::object self) {
-            auto& c = self.cast<io::Clip&>();
+            auto& c = self.cast<Clip&>();
             return tensor_view(self, c.translations, c.frames, c.joints(), 3);
           },
-          [](io::Clip& c, py::handle v) { assign_tensor(c, c.translations, v, 3, "translations"); },
+          [](Clip& c, py::handle v) { assign_tensor(c, c.translations, v, 3, "translations"); },
           "Local joint translations, (F, J, 3) float32: a writable view (no copy).")
       .def(
           "quaternions",
-          [](const io::Clip& c, bool scalar_first) {
+          [](const Clip& c, bool scalar_first) {
             std::vector<float> values = c.rotations;
             return adopt(std::move(values), c.frames, c.joints(), 4, scalar_first);
           },
@@ -562,24 +561,23 @@ PYBIND11_MODULE(mocap_clean, m) {
           "A copy of the rotations, (w, x, y, z) or with scalar_first=False (x, y, z, w) for "
           "scipy.spatial.transform.Rotation.from_quat.")
       .def_property_readonly(
-          "skeleton",
-          [](const io::Clip& c) { return std::const_pointer_cast<io::Skeleton>(c.skeleton); },
+          "skeleton", [](const Clip& c) { return std::const_pointer_cast<Skeleton>(c.skeleton); },
           "The Skeleton (shared, read-only).")
       .def_property(
-          "frame_time", [](const io::Clip& c) { return c.frame_time; },
-          [](io::Clip& c, double t) {
+          "frame_time", [](const Clip& c) { return c.frame_time; },
+          [](Clip& c, double t) {
             check_frame_time(t);
             c.frame_time = t;
           },
           "Seconds per frame.")
-      .def_readwrite("source", &io::Clip::source, "Where the clip came from (names it in errors).")
+      .def_readwrite("source", &Clip::source, "Where the clip came from (names it in errors).")
       .def_property_readonly(
-          "frames", [](const io::Clip& c) { return c.frames; }, "Number of frames F.")
-      .def_property_readonly("joints", &io::Clip::joints, "Number of joints J.")
+          "frames", [](const Clip& c) { return c.frames; }, "Number of frames F.")
+      .def_property_readonly("joints", &Clip::joints, "Number of joints J.")
       .def(
-          "copy", [](const io::Clip& c) { return std::make_shared<io::Clip>(c); },
+          "copy", [](const Clip& c) { return std::make_shared<Clip>(c); },
           "A deep copy of the tensors (the skeleton is shared).")
-      .def("__repr__", [](const io::Clip& c) {
+      .def("__repr__", [](const Clip& c) {
         return fmt::format("<mocap_clean.Motion '{}': {} frames, {} joints, {:g} fps>", c.source,
                            c.frames, c.joints(), 1.0 / c.frame_time);
       });
@@ -596,7 +594,7 @@ PYBIND11_MODULE(mocap_clean, m) {
           if (r.error->line == 0) throw std::runtime_error(r.error->what());
           throw py::value_error(r.error->what());
         }
-        return std::make_shared<io::Clip>(std::move(*r.clip));
+        return std::make_shared<Clip>(std::move(*r.clip));
       },
       py::arg("path"),
       "Reads a BVH file into a Motion (Euler channels to unit quaternions, sign-continuous), as "
@@ -609,13 +607,13 @@ PYBIND11_MODULE(mocap_clean, m) {
       [](const std::string& text, const std::string& name) {
         io::BvhReadResult r = io::parse_bvh(text, name, /*keep_source_angles=*/true);
         if (r.error) throw py::value_error(r.error->what());
-        return std::make_shared<io::Clip>(std::move(*r.clip));
+        return std::make_shared<Clip>(std::move(*r.clip));
       },
       py::arg("text"), py::arg("name") = "<string>",
       "Parses BVH text into a Motion (see read_bvh).");
   m.def(
       "format_bvh",
-      [](const io::Clip& clip) {
+      [](const Clip& clip) {
         if (std::string why = io::check_clip_for_bvh(clip); !why.empty())
           throw py::value_error(why);
         return io::format_bvh(clip);
@@ -623,7 +621,7 @@ PYBIND11_MODULE(mocap_clean, m) {
       py::arg("motion"), "The BVH text of a Motion, exactly as `mocap-clean export` writes it.");
   m.def(
       "write_bvh",
-      [](const io::Clip& clip, const std::filesystem::path& path) {
+      [](const Clip& clip, const std::filesystem::path& path) {
         if (std::string why = io::check_clip_for_bvh(clip); !why.empty())
           throw py::value_error(path.string() + ": " + why);
         std::string error;
@@ -750,7 +748,7 @@ PYBIND11_MODULE(mocap_clean, m) {
       },
       py::arg("data"), py::kw_only(), MOCAP_COMMON_ARGS,
       doc("`--method auto`: the method and its parameters chosen per clip from its estimated "
-          "noise (engine/filter_settings.hpp, choose_automatic), with the pop stage on (pops "
+          "noise (engine/clip/filter_settings.hpp, choose_automatic), with the pop stage on (pops "
           "None = auto). Always returns (result, info); info['method'] and info['parameters'] "
           "say what it chose.")
           .c_str());
@@ -796,7 +794,7 @@ PYBIND11_MODULE(mocap_clean, m) {
       },
       py::arg("rotations"), py::kw_only(), py::arg("frame_time") = 1.0 / 120.0,
       py::arg("mode") = "repair", py::arg("scalar_first") = true, py::arg("inplace") = false,
-      "The engine's pop stage (engine/clip_conditioning.hpp, condition_rotations): makes each "
+      "The engine's pop stage (engine/clip/clip_conditioning.hpp, condition_rotations): makes each "
       "joint's curve sign-continuous, classifies the joints and finds (mode 'detect') or repairs "
       "('repair'; 'auto': repair at 60 fps and more) the pops of all but the flipping joints.\n"
       "Returns (rotations, info) with info['pops'] per joint, info['garbage'] per joint (1 = "
@@ -987,8 +985,8 @@ PYBIND11_MODULE(mocap_clean, m) {
 
   m.def(
       "forward_kinematics",
-      [](const io::Clip& clip, bool end_sites) {
-        const io::Skeleton& s = *clip.skeleton;
+      [](const Clip& clip, bool end_sites) {
+        const Skeleton& s = *clip.skeleton;
         const int F = clip.frames, J = clip.joints();
         std::vector<std::uint8_t> translated(std::size_t(J), 0);
         for (int j = 0; j < J; ++j) translated[std::size_t(j)] = s.has_translation(j);

@@ -4,4 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-exec "${BUILD_DIR:-build}/engine/mocap-clean" demo "$@"
+exec "${BUILD_DIR:-build}/app/mocap-clean" demo "$@"

@@ -6,7 +6,7 @@ cd "$(dirname "$0")/.."
 
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libtbb-dev libeigen3-dev libhdf5-dev libhwy-dev
+  libtbb-dev libhdf5-dev libhwy-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev libfmt-dev nlohmann-json3-dev
   hdf5-filter-plugin liblz4-dev zlib1g-dev python3-h5py python3-numpy

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "kernels/quaternion.hpp"
-#include "kernels/tensor.hpp"
+#include "core/quaternion.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap::test {
 

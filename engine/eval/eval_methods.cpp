@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "engine/filter_settings.hpp"
+#include "engine/clip/filter_settings.hpp"
 #include "kernels/bilateral.hpp"
 #include "kernels/kalman.hpp"
 #include "kernels/linear_filter.hpp"
@@ -92,7 +92,7 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
     case EvalMethod::bof: {
       BilateralParams p;
       if (!point) {
-        p.sigma_g = p.sigma_t = 0;  // both automatic: engine/filter_settings.hpp
+        p.sigma_g = p.sigma_t = 0;  // both automatic: engine/clip/filter_settings.hpp
       } else {
         p.sigma_t = value(point, "sigma_t", p.sigma_t);
         p.sigma_g = value(point, "sigma_g", p.sigma_g);
@@ -126,7 +126,7 @@ Status run_method(EvalMethod method, const ParamPoint* point, const SegmentJob& 
       p.h = has(point, "h") ? value(point, "h", 0)
                             : value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
       if (robust) p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
-      if (job.automatic_floors) {  // what --method auto does (engine/filter_settings.hpp)
+      if (job.automatic_floors) {  // what --method auto does (engine/clip/filter_settings.hpp)
         p.h = std::max(p.h, kAutoNlpmMinH);
         if (robust) p.range_sigma = std::max(p.range_sigma, kAutoNlpmMinRange);
       }

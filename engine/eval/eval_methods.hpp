@@ -2,10 +2,10 @@
 // Runs one eval method on one segment of a noisy clip: at a grid point, or with the engine's
 // automatic parameters (what a user gets without giving any):
 //   bof          sigma_g and sigma_t from sigma_hat (automatic_bilateral,
-//   engine/filter_settings.hpp) nlpm         h = kNlpmAutoFactor sigma_hat
-//   (engine/filter_settings.hpp), K = 10, P = 5 gaussian     sigma_t = 1 frame;  butterworth  order
-//   2, 6 Hz;  moving-mean  5 passes kalman       lambda = kalman_auto_lambda(sigma_hat, frame_time)
-//   (kernels/kalman.hpp)
+//   engine/clip/filter_settings.hpp) nlpm         h = kNlpmAutoFactor sigma_hat
+//   (engine/clip/filter_settings.hpp), K = 10, P = 5 gaussian     sigma_t = 1 frame;  butterworth
+//   order 2, 6 Hz;  moving-mean  5 passes kalman       lambda = kalman_auto_lambda(sigma_hat,
+//   frame_time) (kernels/kalman.hpp)
 // Translations (the position channels) take each method's translation path, as in the engine:
 // nlpm's Gaussian width comes from the segment's estimated translation noise
 // (automatic_translation_sigma_t) unless the grid gives translation_sigma_t.
@@ -14,9 +14,9 @@
 #include <cstdint>
 #include <span>
 
+#include "core/status.hpp"
+#include "core/tensor.hpp"
 #include "engine/eval/eval_spec.hpp"
-#include "kernels/status.hpp"
-#include "kernels/tensor.hpp"
 
 namespace mocap::engine::eval {
 

@@ -6,10 +6,10 @@
 #include <limits>
 #include <map>
 
-#include "engine/filter_settings.hpp"
+#include "core/quaternion.hpp"
+#include "engine/clip/filter_settings.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/metrics.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap::engine::eval {
 namespace {
@@ -34,7 +34,7 @@ bool scored(const Segment& s) {
   return s.frames() >= 2;
 }
 
-Effector effector_at(const io::Skeleton& skeleton, int j, bool foot) {
+Effector effector_at(const Skeleton& skeleton, int j, bool foot) {
   Effector e;
   e.foot = foot;
   e.site.joint = j;
@@ -46,7 +46,7 @@ Effector effector_at(const io::Skeleton& skeleton, int j, bool foot) {
   return e;
 }
 
-std::vector<Effector> effectors_by_name(const io::Skeleton& skeleton) {
+std::vector<Effector> effectors_by_name(const Skeleton& skeleton) {
   const int joints = skeleton.joint_count();
   std::vector<int> depth(std::size_t(joints), 0);
   std::map<std::pair<char, bool>, int> deepest;  // (side, foot) -> joint
@@ -94,7 +94,7 @@ double lowest_foot(const std::vector<float>& positions, const ClipGeometry& g,
 
 }  // namespace
 
-void effector_positions(const io::Clip& clean, const ClipGeometry& geometry, RotationView rotations,
+void effector_positions(const Clip& clean, const ClipGeometry& geometry, RotationView rotations,
                         std::vector<float>& out, TranslationView translations,
                         std::vector<float>* joint_positions) {
   std::vector<float> local;
@@ -113,9 +113,9 @@ void effector_positions(const io::Clip& clean, const ClipGeometry& geometry, Rot
   (void)fk.run();  // shapes come from the clip itself
 }
 
-ClipGeometry describe_clip(const io::Clip& clean, double unit_cm,
+ClipGeometry describe_clip(const Clip& clean, double unit_cm,
                            const std::vector<Segment>& segments) {
-  const io::Skeleton& skeleton = *clean.skeleton;
+  const Skeleton& skeleton = *clean.skeleton;
   ClipGeometry g;
   g.parents = skeleton.parents;
   g.offsets = skeleton.offsets;
@@ -241,7 +241,7 @@ FrameRange scored_range(const Segment& s, double frame_time) {
   return {s.begin + edge, s.end - edge};
 }
 
-void add_position_scores(const io::Clip& clean, const ClipGeometry& geometry,
+void add_position_scores(const Clip& clean, const ClipGeometry& geometry,
                          const ClipReference& reference, const std::vector<Segment>& segments,
                          const std::vector<float>& positions, bool against_truth,
                          PositionSums& sums) {
@@ -278,7 +278,7 @@ void count_skating(std::span<const Vec3> track, const std::vector<Segment>& segm
   }
 }
 
-ClipReference make_reference(const io::Clip& clean, const ClipGeometry& geometry,
+ClipReference make_reference(const Clip& clean, const ClipGeometry& geometry,
                              const std::vector<Segment>& segments) {
   ClipReference r;
   effector_positions(clean, geometry, clean.rotation_view(), r.effectors, {}, &r.positions);
@@ -316,9 +316,9 @@ ClipReference make_reference(const io::Clip& clean, const ClipGeometry& geometry
   return r;
 }
 
-Score score_clip(const io::Clip& clean, const ClipGeometry& geometry,
-                 const ClipReference& reference, const std::vector<Segment>& segments,
-                 RotationView result, TranslationView result_translations) {
+Score score_clip(const Clip& clean, const ClipGeometry& geometry, const ClipReference& reference,
+                 const std::vector<Segment>& segments, RotationView result,
+                 TranslationView result_translations) {
   Score s;
   const RotationView truth = clean.rotation_view();
   const int joints = clean.joints(), frames = clean.frames;

@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-#include "io/clip.hpp"
+#include "core/clip.hpp"
 #include "kernels/foot_contacts.hpp"
 #include "kernels/forward_kinematics.hpp"
 #include "kernels/motion_split.hpp"
@@ -62,8 +62,7 @@ struct ClipGeometry {
 };
 
 // The effectors of `clip`'s skeleton, the unit (unit_cm > 0: given), from the clean clip.
-ClipGeometry describe_clip(const io::Clip& clean, double unit_cm,
-                           const std::vector<Segment>& segments);
+ClipGeometry describe_clip(const Clip& clean, double unit_cm, const std::vector<Segment>& segments);
 
 // Scores as sums, so that clips pool by adding.
 struct Score {
@@ -106,18 +105,18 @@ struct ClipReference {
   std::vector<std::vector<ContactInterval>> contacts;  // per foot of geometry.feet
   PositionSums clean_positions;  // the clean clip's own jitter and skating, mm
 };
-ClipReference make_reference(const io::Clip& clean, const ClipGeometry& geometry,
+ClipReference make_reference(const Clip& clean, const ClipGeometry& geometry,
                              const std::vector<Segment>& segments);
 
 // The scores of `result` (rotations and translations of the clip's shape; empty translations:
 // the clean clip's).
-Score score_clip(const io::Clip& clean, const ClipGeometry& geometry,
-                 const ClipReference& reference, const std::vector<Segment>& segments,
-                 RotationView result, TranslationView result_translations = {});
+Score score_clip(const Clip& clean, const ClipGeometry& geometry, const ClipReference& reference,
+                 const std::vector<Segment>& segments, RotationView result,
+                 TranslationView result_translations = {});
 
 // Global positions of the effectors for `rotations` with `translations` (empty: the clean
 // clip's); `joints` (optional) receives every joint's.
-void effector_positions(const io::Clip& clean, const ClipGeometry& geometry, RotationView rotations,
+void effector_positions(const Clip& clean, const ClipGeometry& geometry, RotationView rotations,
                         std::vector<float>& out, TranslationView translations = {},
                         std::vector<float>* joints = nullptr);
 

@@ -8,12 +8,12 @@
 #include <cmath>
 #include <set>
 
-#include "engine/atomic_file.hpp"
+#include "core/quaternion.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "engine/eval/svg_plot.hpp"
+#include "engine/run/atomic_file.hpp"
 #include "kernels/bilateral.hpp"
 #include "kernels/metrics.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap::engine::eval {
 namespace {

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <functional>
 
+#include "core/version.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "engine/eval/svg_plot.hpp"
-#include "engine/version.hpp"
 
 namespace mocap::engine::eval {
 namespace {

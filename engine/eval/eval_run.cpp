@@ -10,7 +10,7 @@
 #include <limits>
 #include <mutex>
 
-#include "engine/clip_conditioning.hpp"
+#include "engine/clip/clip_conditioning.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
@@ -41,7 +41,7 @@ std::uint64_t noise_seed(std::uint64_t seed, const std::string& clip,
   return z ^ (z >> 31);
 }
 
-std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condition,
+std::vector<float> make_noisy(const Clip& clean, const NoiseCondition& condition,
                               std::uint64_t seed) {
   std::vector<float> rotations = clean.rotations;
   const RotationSpan span{rotations.data(), clean.frames, clean.joints()};
@@ -55,7 +55,7 @@ std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condi
   return rotations;
 }
 
-std::vector<float> make_noisy_translations(const io::Clip& clean, const NoiseCondition& condition,
+std::vector<float> make_noisy_translations(const Clip& clean, const NoiseCondition& condition,
                                            double body_height, std::uint64_t seed) {
   std::vector<float> translations = clean.translations;
   if (condition.position_sigma > 0) {
@@ -71,7 +71,7 @@ std::vector<float> make_noisy_translations(const io::Clip& clean, const NoiseCon
 // The impossible steps are a property of the source, so eval finds them in the clean clip: every
 // method and noise condition then sees the same segments, and the synthetic noise (whose pops
 // stay below the threshold anyway) can neither add nor hide a cut.
-EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config) {
+EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config) {
   EvalClip c;
   c.name = std::move(name);
   c.clean = std::move(clean);

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "core/clip.hpp"
 #include "engine/eval/eval_metrics.hpp"
 #include "engine/eval/eval_spec.hpp"
-#include "io/clip.hpp"
 #include "kernels/motion_split.hpp"
 
 namespace mocap::engine::eval {
@@ -31,7 +31,7 @@ struct EvalConfig {
 // One clean clip and what eval derives from it once.
 struct EvalClip {
   std::string name;  // clip path ("cmu_mb_01_01", "cmu/01/01_01")
-  io::Clip clean;
+  Clip clean;
   std::vector<ImpossibleStep> steps;  // found in the clean clip (see eval_run.cpp)
   std::vector<Segment> segments;
   ClipGeometry geometry;
@@ -43,8 +43,8 @@ struct NoisyClip {
   std::vector<float> rotations;     // [F][J][4]
   std::vector<float> translations;  // [F][J][3]: the clean ones plus the condition's position noise
   std::vector<double> sigma_hats;   // per segment
-  // The same after the engine's conditioning (engine/clip_conditioning.hpp: pop repair, garbage
-  // joints found on the noisy clip), and its noise estimates (garbage joints left out).
+  // The same after the engine's conditioning (engine/clip/clip_conditioning.hpp: pop repair,
+  // garbage joints found on the noisy clip), and its noise estimates (garbage joints left out).
   std::vector<float> repaired;
   std::vector<double> repaired_sigma_hats;
   std::vector<std::uint8_t> garbage;
@@ -72,16 +72,16 @@ struct EvalResults {
 std::uint64_t noise_seed(std::uint64_t seed, const std::string& clip, const std::string& condition);
 
 // Adds the condition's rotation noise to a copy of `clean`'s rotations.
-std::vector<float> make_noisy(const io::Clip& clean, const NoiseCondition& condition,
+std::vector<float> make_noisy(const Clip& clean, const NoiseCondition& condition,
                               std::uint64_t seed);
 // Adds the condition's position noise (position_sigma body heights, on the joints with position
 // channels) to a copy of `clean`'s translations; seeded apart from the rotation noise.
-std::vector<float> make_noisy_translations(const io::Clip& clean, const NoiseCondition& condition,
+std::vector<float> make_noisy_translations(const Clip& clean, const NoiseCondition& condition,
                                            double body_height, std::uint64_t seed);
 
 // Prepares a clip: the impossible steps and segments (when config.split_impossible), the
 // geometry and the reference.
-EvalClip prepare_clip(std::string name, io::Clip clean, const EvalConfig& config);
+EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config);
 
 // Runs every task on all threads of the current TBB arena; `progress(done, total)` is called
 // under a lock after each task (may be empty).

@@ -12,7 +12,7 @@
 namespace mocap::engine::eval {
 
 // nlpm_robust: nlpm with the per-joint range term (NlpmParams::range_sigma); automatic: what
-// `--method auto` chooses per clip (engine/filter_settings.hpp, choose_automatic).
+// `--method auto` chooses per clip (engine/clip/filter_settings.hpp, choose_automatic).
 enum class EvalMethod {
   bof,
   nlpm,

@@ -12,7 +12,7 @@
 #include <span>
 #include <vector>
 
-#include "kernels/tensor.hpp"
+#include "core/tensor.hpp"
 
 namespace mocap::simd {
 

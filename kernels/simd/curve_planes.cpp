@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "kernels/quaternion.hpp"
+#include "core/quaternion.hpp"
 #include "kernels/simd/planes.hpp"
 
 namespace mocap::simd {

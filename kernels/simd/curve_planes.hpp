@@ -6,9 +6,9 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/tensor.hpp"
 #include "kernels/boundary.hpp"
 #include "kernels/motion_io.hpp"
-#include "kernels/tensor.hpp"
 
 namespace mocap::simd {
 

@@ -6,11 +6,11 @@
 // take the scalar code. The chart Logs stay scalar double (the float Log of quat_simd-inl.h is far
 // from double accuracy). The fits use the reference's operations in its order, without fused
 // multiply-adds (-ffp-contract=off), so where the scalar build does not fuse either (the x86-64
-// baseline) the results are the reference's to the bit (tests/pop_repair_test.cpp).
+// baseline) the results are the reference's to the bit (tests/kernels/pop_repair_test.cpp).
 #include <span>
 
+#include "core/quaternion.hpp"
 #include "kernels/pop_repair.hpp"
-#include "kernels/quaternion.hpp"
 
 namespace mocap::simd {
 

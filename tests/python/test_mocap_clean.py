@@ -1,5 +1,5 @@
 """pytest suite of the mocap_clean module (python/). Run by CTest with PYTHONPATH=build/python and
-MOCAP_CLI=build/engine/mocap-clean; the tests on the shared CMU clips skip when
+MOCAP_CLI=build/app/mocap-clean; the tests on the shared CMU clips skip when
 ../shared/data/bvh is absent."""
 import os
 import subprocess
@@ -17,7 +17,7 @@ import mocap_clean as mc
 
 REPO = Path(__file__).resolve().parents[2]
 SHARED = REPO / ".." / "shared" / "data" / "bvh"
-CLI = Path(os.environ.get("MOCAP_CLI", REPO / "build" / "engine" / "mocap-clean"))
+CLI = Path(os.environ.get("MOCAP_CLI", REPO / "build" / "app" / "mocap-clean"))
 
 # Small clips first: the CLI runs once per method and clip.
 CLIPS = ["cmu_mb_02_03.bvh", "cmu_mb_02_01.bvh"]

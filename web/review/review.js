@@ -119,7 +119,7 @@ window.mocapReviewClip = (i, meta, data) => {
   const p = pending.get(i);
   if (p) decode(meta, data).then(p.resolve, p.reject);
 };
-// engine/review_report.cpp pack(): deflate, then byte planes (low, high), then int16 steps from
+// engine/run/review_report.cpp pack(): deflate, then byte planes (low, high), then int16 steps from
 // the value one sample (J x 3 values) before.
 async function decode(meta, data) {
   const bytes = Uint8Array.from(atob(data), (ch) => ch.charCodeAt(0));

@@ -1,4 +1,4 @@
-# The review page's files go into the program (engine/review_assets.cpp, .incbin). three.js comes
+# The review page's files go into the program (engine/run/review_assets.cpp, .incbin). three.js comes
 # from npm (scripts/setup.sh: npm ci in web/review); without it, `--report` says how to get it.
 set(MOCAP_REVIEW_DIR ${CMAKE_SOURCE_DIR}/web/review)
 set(MOCAP_REVIEW_THREE_JS ${MOCAP_REVIEW_DIR}/node_modules/three/build/three.module.min.js)
@@ -14,8 +14,8 @@ else()
                  "(scripts/setup.sh installs it with npm)")
   set(MOCAP_REVIEW_HAS_THREE OFF)
 endif()
-set_source_files_properties(${CMAKE_SOURCE_DIR}/engine/review_assets.cpp PROPERTIES
+set_source_files_properties(${CMAKE_SOURCE_DIR}/engine/run/review_assets.cpp PROPERTIES
   COMPILE_DEFINITIONS "${MOCAP_REVIEW_DEFINITIONS}" OBJECT_DEPENDS "${MOCAP_REVIEW_FILES}")
-# The clips' motion is deflated for the page (engine/review_report.cpp).
+# The clips' motion is deflated for the page (engine/run/review_report.cpp).
 find_package(ZLIB REQUIRED)
 target_link_libraries(mocap_engine PRIVATE ZLIB::ZLIB)

@@ -1,0 +1,35 @@
+#pragma once
+// `mocap-clean eval SRC... -o REPORT_DIR`: the papers' experiments rerun on any library. Adds
+// seeded noise to every clip, runs each method over a parameter grid and with its automatic
+// parameters, scores against the clean clip, and writes report.json, table.md, index.html and
+// SVG figures; prints the PSNR table (Dean & Lewis 2017, Table I style) on stdout.
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+#include "app/filter_options.hpp"
+
+namespace mocap::engine {
+
+struct EvalCommand {
+  std::vector<std::string> sources;  // BVH files, folders, or library files (.h5)
+  std::string output_dir;
+  std::vector<std::string> noise;  // --noise specs; empty = the defaults
+  std::string methods = "bof,nlpm,gaussian,butterworth,moving-mean,kalman,nlpm-robust,auto";
+  std::string pops = "both";      // off: the spec filters; on: after the pop stage; both
+  std::vector<std::string> grid;  // --grid METHOD.PARAM=v1,v2
+  unsigned long long seed = 1;
+  double unit_cm = 0;  // 0 = guess per clip
+  bool split_impossible = true;
+  double split_max_speed = 150;
+  bool plots = true;
+  int frame_step = 1;  // --frame-step: every N-th frame (a lower frame rate)
+  RunOptions run;
+  std::string command_line;  // as typed, for the report
+};
+
+// Registers the `eval` subcommand and its options on `app`.
+CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command);
+int run_eval(const EvalCommand& command);
+
+}  // namespace mocap::engine

@@ -1,0 +1,47 @@
+#pragma once
+// One motion clip as the engine holds it: skeleton, frame time and the two tensors.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/skeleton.hpp"
+#include "core/tensor.hpp"
+
+namespace mocap {
+
+// What a run did to one clip, stored with it in a library output (README, "The library file"):
+// empty method = nothing recorded (import, noise, method none).
+struct ClipProvenance {
+  std::string method;              // what ran on this clip: auto's choice, or "unchanged"
+  std::string parameters_json;     // its parameters as resolved for this clip (a JSON object)
+  double noise_sigma = -1;         // the estimated noise (rad) the parameters came from; -1: none
+  bool pop_stage = false;          // the pop stage looked for pops
+  bool pops_repaired = false;      // ... and repaired them (else only counted)
+  std::vector<std::int32_t> pops;  // [N][2]: frame, joint of each pop found
+  bool feet = false;               // foot contacts were looked for (and locked)
+  std::vector<std::int32_t> contacts;  // [N][3]: ankle joint, first frame, one past the last
+};
+
+struct Clip {
+  std::shared_ptr<const Skeleton> skeleton;
+  double frame_time = 0;  // seconds
+  int frames = 0;
+  std::vector<float> rotations;     // [F][J][4], wxyz local rotations, hemisphere-continuous
+  std::vector<float> translations;  // [F][J][3]; joints without position channels hold offsets
+  std::string source;               // relative path of the source file, e.g. "cmu/01/01_01.bvh"
+  // The Euler channel values the BVH file held, [F][J][3] radians in each joint's channel order
+  // (zeros for joints without rotation channels); empty unless the reader was asked to keep
+  // them. The BVH writer picks, per sample, the Euler solution nearest them, so curves an
+  // animator sees stay the source's wherever the rotation did not change.
+  std::vector<float> source_angles;
+  ClipProvenance provenance;
+
+  int joints() const { return skeleton ? skeleton->joint_count() : 0; }
+  RotationView rotation_view() const { return {rotations.data(), frames, joints()}; }
+  RotationSpan rotation_span() { return {rotations.data(), frames, joints()}; }
+  TranslationView translation_view() const { return {translations.data(), frames, joints()}; }
+  TranslationSpan translation_span() { return {translations.data(), frames, joints()}; }
+};
+
+}  // namespace mocap

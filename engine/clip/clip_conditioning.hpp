@@ -1,0 +1,57 @@
+#pragma once
+// What the engine does to a clip before any filter (not part of the spec's filters): finds its
+// garbage joints (constant, moving only by float rounding, or flipping by about pi: uncaptured)
+// and repairs its pops (kernels/pop_repair.hpp), leaving the garbage joints as they came. Also
+// the tally of what it found over a run, for the --json summary and the closing line.
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/clip.hpp"
+#include "engine/clip/filter_settings.hpp"
+#include "kernels/joint_quality.hpp"
+
+namespace mocap::engine {
+
+struct ClipConditioning {
+  std::vector<JointQuality> joints;       // per joint, as classified
+  std::vector<std::uint8_t> garbage;      // per joint: 1 = garbage
+  std::vector<int> pops;                  // per joint: pops found (detect) or repaired (repair)
+  bool repaired = false;                  // the pops were repaired (not only counted)
+  std::vector<std::int32_t> pop_samples;  // [N][2]: frame, joint of each pop, frame order
+  bool any_garbage() const;
+  std::size_t pop_count() const;
+};
+
+// Classifies the joints of `rotations` and finds (detect) or repairs (repair, in place) its pops
+// on every joint but the flipping ones. The pop test runs between impossible steps (a jump no joint
+// can make, kernels/motion_split.hpp, measured on the joints that are not garbage): the
+// synthetic T-pose frame 0 of CMU conversions is a frame of its own, not a pop.
+ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time);
+
+// condition_rotations on the clip, but nothing at all for method none (a copy) or pops off (the
+// spec's filter alone: no garbage joints are reported either).
+ClipConditioning condition_clip(const FilterSettings& settings, Clip& clip);
+
+// Over a run: pops per joint name, and the garbage joints of each clip.
+struct ConditioningTally {
+  PopsMode mode = PopsMode::off;
+  bool keep_garbage = true;
+  std::size_t pops = 0, repaired = 0, clips_with_pops = 0, garbage_joints = 0,
+              clips_with_garbage = 0;
+  std::map<std::string, std::size_t> pops_by_joint;
+  nlohmann::json garbage = nlohmann::json::array();  // [{clip, joints: [{joint, class}]}]
+
+  void add(const std::string& clip, const Clip& data, const ClipConditioning& c);
+  // Adds "pops" and "garbage_joints" to a --json summary.
+  void write_to(nlohmann::json& summary) const;
+};
+
+// The closing line's words for a summary holding them ("" when it holds none): "pops: 41
+// repaired in 7 clips (LeftHand 9, ...); garbage joints: 2 in 1 clip, kept as they came".
+std::string describe_conditioning(const nlohmann::json& summary);
+
+}  // namespace mocap::engine

@@ -1,0 +1,169 @@
+#pragma once
+// What a filter run is asked to do: the method, every parameter of the spec, and how a clip is
+// cut into shards. Resolves the automatic parameters per clip and runs one shard's job.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "core/clip.hpp"
+#include "core/status.hpp"
+#include "kernels/bilateral.hpp"
+#include "kernels/kalman.hpp"
+#include "kernels/linear_filter.hpp"
+#include "kernels/motion_split.hpp"
+#include "kernels/nlpm.hpp"
+#include "kernels/noise_estimate.hpp"
+
+namespace mocap::engine {
+
+// automatic: chosen per clip from what the clip shows (choose_automatic below).
+enum class Method { none, bof, nlpm, gaussian, butterworth, moving_mean, kalman, automatic };
+
+// Pop repair before the filter (engine/clip/clip_conditioning.hpp): off = the spec's filter
+// exactly; auto = repair at kPopsRepairMinFps and above, detect (count only) below.
+enum class PopsMode { off, detect, repair, automatic };
+// Measured with `eval` on ../shared/data/bvh (README "Pops"): at 120 fps the repair gains 20 dB
+// on the spec's pops and costs 0.05-0.7 dB on gaussian noise (where it mostly repairs glitches
+// of the captures themselves); at 30 fps (--frame-step 4) a quadratic no longer predicts fast
+// limbs well enough: it flags 0.17 % of clean samples and loses 7-9 dB at 0.008 rad, while the
+// spec's pops (rate 1 %) gain 7 dB; repairing only clips with over 0.5 % of samples flagged still
+// lost 6 dB (17 dB on a 44-frame clip), so below 60 fps auto only counts.
+inline constexpr double kPopsRepairMinFps = 60;
+std::optional<PopsMode> parse_pops_mode(std::string_view name);
+std::string_view to_string(PopsMode mode);
+
+std::optional<Method> parse_method(std::string_view name);
+std::string_view to_string(Method method);
+
+// nlpm's automatic strength: h = kNlpmAutoFactor * sigma_hat (spec "Noise level estimate"),
+// calibrated on ../shared/data/bvh with added noise (README, "Automatic parameters"; `mocap-clean
+// eval --grid nlpm.h_factor=...`): 1.2 is within 0.02 dB of the best h at 0.008, 0.03, 0.12 rad.
+inline constexpr double kNlpmAutoFactor = 1.2;
+
+// bof's automatic parameters, asked for with sigma_g = 0 and/or sigma_t = 0 (calibrated the same
+// way, `--grid bof.sigma_g_factor=... --grid bof.sigma_t_factor=...`):
+//   sigma_g = kBofAutoSigmaGFactor sigma_hat
+//   sigma_t = max(1, kBofAutoSigmaTFactor sqrt(sigma_hat) (1 / (120 frame_time))^(3/4)) frames
+// The temporal width must grow with the noise too: at sigma_t = 1 no sigma_g comes within 3.5 dB
+// of the best at 0.12 rad. sqrt(sigma_hat) is the Wiener smoother's width for a motion spectrum
+// falling as w^-4; the frame-rate factor follows from the same argument (the shared clips are all
+// 120 fps, so it is not measured).
+inline constexpr double kBofAutoSigmaGFactor = 3.0;
+inline constexpr double kBofAutoSigmaTFactor = 10.0;
+// `params` with its zero sigma_g / sigma_t replaced by the rule above.
+BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, double frame_time);
+
+// nlpm's translation Gaussian (NlpmParams::translation_sigma_t, kernels/nlpm.hpp), asked for with
+// --translation-sigma-t auto (the default). Translations without measurable noise (below
+// kNoisyPositions of the body's height, has_noisy_positions) are kept as they are: at 30 fps a
+// root's own curvature is large, and a Gaussian of even one frame raised the joint position error
+// of the shared clips by 10 % where their positions were clean (5.51 to 6.05 mm with 0.008 rad of
+// rotation noise); 0 also where the clip is too short to measure a. For a locally quadratic
+// trajectory of acceleration a
+// (per frame^2) under i.i.d. noise sigma, a Gaussian of width s has squared bias a^2 s^4 / 4 and
+// variance sigma^2 / (2 sqrt(pi) s); their sum is least at s* = (sigma^2 / (2 sqrt(pi) a^2))^(1/5).
+// At s* the noise left still carries 0.87 a of second difference, about the motion's own: the
+// rule widens s* by kTranslationSigmaFactor so a noisy root comes out with little more than its
+// true jitter (the error grows by a few per cent). sigma and a come from
+// estimate_translation_noise (kernels/noise_estimate.hpp). Capped at kTranslationSigmaMaxSeconds.
+inline constexpr double kAutomaticTranslationSigma = -1;  // in FilterSettings: "auto"
+inline constexpr double kTranslationSigmaFactor = 1.3;
+inline constexpr double kTranslationSigmaMaxSeconds = 0.2;
+double automatic_translation_sigma_t(TranslationNoise noise, double frame_time, double body_height);
+
+// The skeleton's height in its rest pose, End Sites included (file units).
+double body_height(const Skeleton& skeleton);
+
+// nlpm's automatic range term (NlpmParams::range_sigma), asked for with --nlpm-range auto:
+// range_sigma = kNlpmAutoRangeFactor * sigma_hat (README "Automatic parameters").
+inline constexpr double kNlpmAutoRangeFactor = 5.0;
+
+struct FilterSettings {
+  Method method = Method::none;
+  // Before the filter (not for `none`, which copies): pop repair, and garbage joints (constant,
+  // rounding-only, flipping) kept as they came and out of nlpm's pose distance. pops off turns
+  // both off: the spec's filter exactly, on every joint.
+  PopsMode pops = PopsMode::off;
+  bool keep_garbage_joints = true;  // --garbage-joints keep|filter (with pops detect|repair)
+  // After the filter (not for `none`): pin the planted feet, contacts found on the input
+  // (engine/clip/foot_stage.hpp). --feet lock|off; lock by default with --method auto only.
+  bool lock_feet = false;
+  double nlpm_range = 0;  // nlpm's range_sigma: 0 off, < 0 automatic, > 0 given (rad)
+  // Filter each segment between physically impossible steps (kernels/motion_split.hpp: CMU's
+  // synthetic T-pose frame 0) as a clip of its own.
+  bool split_impossible = false;
+  BilateralParams bilateral;
+  LinearParams linear;
+  // h == 0: derived per clip from the estimated noise; translation_sigma_t < 0: likewise, from
+  // the translations' (automatic_translation_sigma_t).
+  NlpmParams nlpm{.translation_sigma_t = kAutomaticTranslationSigma};
+  KalmanParams kalman;              // lambda == 0: derived per clip (kalman_auto_lambda)
+  bool filter_translations = true;  // --translations filter|keep
+  int shard_joints = 8;             // joint block of per-joint methods
+  int shard_frames = 256;           // time block of nlpm
+
+  Status validate() const;
+  nlohmann::json to_json() const;  // parameters as recorded in provenance
+};
+
+// The per-clip resolution of automatic parameters, done once on the whole clip before sharding.
+struct ResolvedSettings {
+  FilterSettings settings;             // method automatic: the method it chose
+  double noise_sigma = -1;             // estimated, when it was needed; -1 otherwise
+  TranslationNoise translation_noise;  // estimated for auto and nlpm's automatic translation width
+  bool noisy_positions = false;        // auto: has_noisy_positions
+  bool unchanged = false;  // nothing to filter (1 frame, or no joint moves for automatic h)
+  // Joints whose samples are copied as they came (garbage joints), one entry per joint; and the
+  // joints nlpm's pose distance looks at (empty: all).
+  std::vector<std::uint8_t> kept_joints, distance_joints;
+  // With split_impossible: the clip's segments between impossible steps (empty: none found).
+  std::vector<Segment> segments;
+};
+// The joints nlpm's pose distance looks at when `garbage` (one entry per joint, nonzero =
+// garbage) are left out: empty (all joints, the spec's distance) when none or all are garbage.
+std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> garbage);
+
+// `garbage` (empty, or one entry per joint, nonzero = garbage) comes from the clip's
+// conditioning: garbage joints stay out of the noise estimate and nlpm's distance and, with
+// keep_garbage_joints, are copied as they came.
+ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& clip,
+                                  std::span<const std::uint8_t> garbage = {});
+
+// What --method auto picks for a clip of estimated noise sigma_hat (rad): the method, with its
+// parameters left automatic (resolved for the clip's frame time by resolve_for_clip) (README
+// "Automatic parameters"). Measured with `eval` on ../shared/data/bvh: nlpm with its range term is
+// best up to 0.03 rad, bof at 0.12 rad; the switch sits between them (geometric middle).
+//   sigma_hat < kAutoNlpmBelow:  nlpm, h = kNlpmAutoFactor sigma_hat, range = kNlpmAutoRangeFactor
+//                                sigma_hat, K = 10, P = 5
+//   otherwise:                   bof, automatic_bilateral
+//   noisy positions:             bof, sigma_g = kAutoSmoothSigmaGFactor sigma_hat, sigma_t as
+//                                automatic_bilateral, iterations ceil(5 fps / 120) in [2, 5]:
+//                                whatever sigma_hat
+// Noisy positions: the position channels' noise (estimate_translation_noise) above
+// kNoisyPositions of the body's height. Such a capture is a noisy solve, and what its viewer sees
+// is jitter: nlpm (and bof at 3 sigma_hat), the rotation-PSNR-best choices, staircase and left
+// 2.3-3.6x the clean capture's joint-position jitter at 0.02 rad + 0.4 % of the body; bof at 8
+// sigma_hat left 0.58x with a lower position error (6.66 against 7.76 mm), for 0.9 dB less
+// rotation PSNR (README, "Positions"). At 30 fps five iterations blur (jitter 2.02x, error
+// 12.36 mm); two left 1.40x and 11.07 mm. On rotation-only noise the PSNR-best branches stay. The
+// clean CMU clips measure 0.00004-0.00013 body heights at 120 fps, 0.0006 at most at 30 fps.
+inline constexpr double kAutoNlpmBelow = 0.06;
+inline constexpr double kAutoSmoothSigmaGFactor = 8.0;
+inline constexpr double kNoisyPositions = 0.0015;
+// Floors of auto's nlpm strength and range width. On a capture with no noise added (CMU clips:
+// sigma_hat 0.001-0.002 rad) h = 1.2 sigma_hat and a range of 5 sigma_hat are so selective that
+// which neighbours get weight changes from frame to frame: the output staircases, and the joint
+// positions came out with 1.04-1.79x the input's jitter and 1.3-2.3x its foot skating (clean, the
+// 9 shared clips, 120 fps). With these floors: jitter 0.24-1.04x, skating 0.47-1.21x (README,
+// "Positions").
+inline constexpr double kAutoNlpmMinH = 0.015;
+inline constexpr double kAutoNlpmMinRange = 0.1;
+FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
+                                bool noisy_positions = false, double frame_time = 1.0 / 120);
+// Whether a clip's position channels carry noise by the rule above (false without any).
+bool has_noisy_positions(const TranslationNoise& noise, double body_height);
+
+}  // namespace mocap::engine

@@ -1,0 +1,147 @@
+#include "engine/clip/foot_stage.hpp"
+
+#include <fmt/format.h>
+
+#include <utility>
+
+#include "engine/clip/filter_settings.hpp"
+#include "kernels/forward_kinematics.hpp"
+
+namespace mocap::engine {
+namespace {
+
+std::vector<std::uint8_t> translated_joints(const Skeleton& skeleton) {
+  std::vector<std::uint8_t> out(std::size_t(skeleton.joint_count()));
+  for (int j = 0; j < skeleton.joint_count(); ++j)
+    out[std::size_t(j)] = skeleton.has_translation(j);
+  return out;
+}
+
+}  // namespace
+
+std::vector<float> joint_positions(const Clip& clip) {
+  const Skeleton& sk = *clip.skeleton;
+  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(sk.joint_count()) * 3);
+  const std::vector<std::uint8_t> translated = translated_joints(sk);
+  ForwardKinematicsJob fk;
+  fk.parents = sk.parents;
+  fk.offsets = sk.offsets;
+  fk.rotations = clip.rotation_view();
+  fk.translations = clip.translation_view();
+  fk.translated_joints = translated;
+  fk.positions = {positions.data(), clip.frames, sk.joint_count()};
+  if (!fk.run().ok()) positions.clear();
+  return positions;
+}
+
+ClipFeet detect_feet(const Clip& clip) {
+  ClipFeet feet;
+  if (!clip.skeleton || clip.frames == 0) return feet;
+  const Skeleton& sk = *clip.skeleton;
+  for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
+    if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
+  if (feet.legs.empty()) return feet;
+  const std::vector<float> positions = joint_positions(clip);
+  if (positions.empty()) return {};  // checked clips always pass; nothing to lock otherwise
+  const TensorView<const float, 3> global{positions.data(), clip.frames, sk.joint_count()};
+  const int N = int(feet.legs.size());
+  std::vector<float> ankles(std::size_t(clip.frames) * std::size_t(N) * 3);
+  for (int t = 0; t < clip.frames; ++t)
+    for (int n = 0; n < N; ++n) {
+      const float* p = global.at(t, feet.legs[std::size_t(n)].ankle);
+      std::copy(p, p + 3, &ankles[(std::size_t(t) * std::size_t(N) + std::size_t(n)) * 3]);
+    }
+  FootContactJob contacts;
+  contacts.feet = {ankles.data(), clip.frames, N};
+  contacts.frame_time = clip.frame_time;
+  contacts.body_height = body_height(sk);
+  contacts.contacts = &feet.contacts;
+  if (!contacts.run().ok()) return {};  // a flat skeleton (no height): no feet to find
+  return feet;
+}
+
+Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params) {
+  if (feet.legs.empty()) return {};
+  const Skeleton& sk = *filtered.skeleton;
+  const std::vector<std::uint8_t> translated = translated_joints(sk);
+  FootLockJob job;
+  job.params = params;
+  job.parents = sk.parents;
+  job.offsets = sk.offsets;
+  job.translated_joints = translated;
+  job.frame_time = filtered.frame_time;
+  job.rotations = filtered.rotation_span();
+  job.translations = filtered.translation_span();
+  job.legs = feet.legs;
+  job.contacts = feet.contacts;
+  job.stats = &feet.stats;
+  if (Status s = job.run(); !s) return s;
+  feet.locked = true;
+  return {};
+}
+
+void FeetTally::add(const std::string& clip, const Clip& data, const ClipFeet& feet) {
+  ++clips;
+  nlohmann::json legs = nlohmann::json::array();
+  for (std::size_t l = 0; l < feet.legs.size(); ++l) {
+    nlohmann::json intervals = nlohmann::json::array();
+    for (const ContactInterval& c : feet.contacts[l]) intervals.push_back({c.begin, c.end});
+    contacts += feet.contacts[l].size();
+    legs.push_back({{"joint", data.skeleton->joint_names[std::size_t(feet.legs[l].ankle)]},
+                    {"contacts", feet.contacts[l].size()},
+                    {"intervals", std::move(intervals)}});
+  }
+  locked_frames += std::size_t(feet.stats.locked_frames);
+  lowered_frames += std::size_t(feet.stats.lowered_frames);
+  nlohmann::json entry = {{"clip", clip}, {"feet", std::move(legs)}};
+  if (feet.locked) entry["root_lowered_frames"] = feet.stats.lowered_frames;
+  by_clip.push_back(std::move(entry));
+}
+
+void FeetTally::write_to(nlohmann::json& summary) const {
+  if (!lock) {
+    summary["feet"] = {{"mode", "off"}};
+    return;
+  }
+  summary["feet"] = {{"mode", "lock"},
+                     {"clips", clips},
+                     {"contacts", contacts},
+                     {"locked_frames", locked_frames},
+                     {"root_lowered_frames", lowered_frames},
+                     {"by_clip", by_clip}};
+}
+
+std::string describe_feet(const nlohmann::json& summary) {
+  if (!summary.contains("feet") || summary["feet"]["mode"] != "lock") return "";
+  const auto& f = summary["feet"];
+  const std::size_t lowered = f["root_lowered_frames"].get<std::size_t>();
+  return fmt::format("  feet: {} contacts locked in {} clips ({} leg-frames){}\n",
+                     f["contacts"].get<std::size_t>(), f["clips"].get<std::size_t>(),
+                     f["locked_frames"].get<std::size_t>(),
+                     lowered ? fmt::format(", root lowered on {} frames", lowered) : "");
+}
+
+Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<Segment>& segments) {
+  const std::size_t joints = std::size_t(filtered.joints());
+  std::vector<std::pair<Segment, std::pair<std::vector<float>, std::vector<float>>>> kept;
+  for (const Segment& s : segments) {
+    if (s.frames() >= 2) continue;
+    const std::size_t begin = std::size_t(s.begin) * joints, end = std::size_t(s.end) * joints;
+    kept.push_back({s,
+                    {std::vector<float>(filtered.rotations.begin() + std::ptrdiff_t(begin * 4),
+                                        filtered.rotations.begin() + std::ptrdiff_t(end * 4)),
+                     std::vector<float>(filtered.translations.begin() + std::ptrdiff_t(begin * 3),
+                                        filtered.translations.begin() + std::ptrdiff_t(end * 3))}});
+  }
+  const Status status = lock_feet(feet, filtered);
+  for (const auto& [s, values] : kept) {
+    const std::size_t begin = std::size_t(s.begin) * joints;
+    std::copy(values.first.begin(), values.first.end(),
+              filtered.rotations.begin() + std::ptrdiff_t(begin * 4));
+    std::copy(values.second.begin(), values.second.end(),
+              filtered.translations.begin() + std::ptrdiff_t(begin * 3));
+  }
+  return status;
+}
+
+}  // namespace mocap::engine

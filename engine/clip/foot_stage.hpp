@@ -1,0 +1,55 @@
+#pragma once
+// Foot locking as an engine stage (README "Feet"): contacts found on a clip as it came (after
+// pop repair, before the filter), and the planted feet pinned on the filtered clip
+// (kernels/foot_lock.hpp). Also the tally of a run, for --json and the closing line.
+#include <cstddef>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/clip.hpp"
+#include "kernels/foot_contacts.hpp"
+#include "kernels/foot_lock.hpp"
+#include "kernels/motion_split.hpp"
+
+namespace mocap::engine {
+
+struct ClipFeet {
+  std::vector<FootChain> legs;                         // the skeleton's feet (find_feet)
+  std::vector<std::vector<ContactInterval>> contacts;  // per leg, its ankle's, on the input
+  FootLockStats stats;                                 // of lock_feet
+  bool locked = false;
+};
+
+// Every joint's global position [F][J][3] by forward kinematics (the position channels where the
+// skeleton has them, else the offsets); empty when the clip's shapes do not agree.
+std::vector<float> joint_positions(const Clip& clip);
+
+// The legs of the clip's skeleton and their contacts in `clip` (global ankle positions by
+// forward kinematics; the body height from the rest pose).
+ClipFeet detect_feet(const Clip& clip);
+
+// Pins the planted feet of `filtered` (the clip detect_feet saw, filtered) in place.
+Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params = {});
+
+// lock_feet, with the frames of the segments the filter leaves as they came (one-frame segments
+// between impossible steps, kernels/motion_split.hpp: CMU's synthetic T-pose frame 0) restored
+// afterwards: they are not motion, and a T-pose must come out a T-pose.
+Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<Segment>& segments);
+
+// Over a run: contacts per clip.
+struct FeetTally {
+  bool lock = false;
+  std::size_t clips = 0, contacts = 0, locked_frames = 0, lowered_frames = 0;
+  nlohmann::json by_clip = nlohmann::json::array();  // [{clip, feet: [{joint, intervals}]}]
+
+  void add(const std::string& clip, const Clip& data, const ClipFeet& feet);
+  // Adds "feet" to a --json summary.
+  void write_to(nlohmann::json& summary) const;
+};
+
+// The closing line's words for a summary holding them ("" when it holds none):
+// "  feet: 24 contacts locked in 3 clips (1810 leg-frames), root lowered on 12 frames".
+std::string describe_feet(const nlohmann::json& summary);
+
+}  // namespace mocap::engine

@@ -1,0 +1,50 @@
+#include "engine/run/clip_source.hpp"
+
+#include "io/bvh_reader.hpp"
+
+namespace mocap::engine {
+
+std::string BvhSource::clip_path(std::size_t i) const {
+  return io::clip_path_from_source(files_[i].relative);
+}
+
+std::size_t BvhSource::cost(std::size_t i) const {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(files_[i].path, ec);
+  return ec ? 0 : std::size_t(size);  // bytes of text: proportional to frames x channels
+}
+
+std::optional<Clip> BvhSource::read(std::size_t i, std::string* error) {
+  io::BvhReadResult result = io::read_bvh(files_[i].path, keep_source_angles_);
+  if (result.error) {
+    if (error) *error = result.error->what();
+    return std::nullopt;
+  }
+  result.clip->source = files_[i].relative;
+  return std::move(result.clip);
+}
+
+std::unique_ptr<LibrarySource> LibrarySource::open(const std::filesystem::path& path,
+                                                   std::string* error) {
+  auto reader = io::LibraryReader::open(path, error);
+  if (!reader) return nullptr;
+  auto source = std::make_unique<LibrarySource>();
+  source->reader_ = std::move(reader);
+  return source;
+}
+
+std::size_t LibrarySource::cost(std::size_t i) const {
+  const auto& h = reader_->clips()[i];
+  return std::size_t(h.frames) * std::size_t(h.joints);
+}
+
+std::optional<Clip> LibrarySource::read(std::size_t i, std::string* error) {
+  const auto& header = reader_->clips()[i];
+  if (!header.error.empty()) {
+    if (error) *error = header.error;
+    return std::nullopt;
+  }
+  return reader_->read_clip(header.path, error);
+}
+
+}  // namespace mocap::engine

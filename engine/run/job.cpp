@@ -1,0 +1,195 @@
+#include "engine/run/job.hpp"
+
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <numeric>
+#include <optional>
+
+#include "engine/clip/clip_checks.hpp"
+#include "engine/clip/clip_conditioning.hpp"
+#include "engine/clip/foot_stage.hpp"
+#include "engine/clip/motion_check.hpp"
+#include "engine/run/automatic_tally.hpp"
+#include "engine/run/pipeline.hpp"
+#include "engine/run/progress.hpp"
+
+namespace mocap::engine {
+namespace {
+
+// What the stages keep per clip.
+struct ClipState {
+  ResolvedSettings resolved;
+  std::any prepared;  // the sink's form of the finished clip
+  ClipConditioning conditioning;
+  MotionMeasure before, after;  // what a viewer sees, as read and as written
+  ClipFeet feet;                // with lock_feet: found on the input, locked on the output
+  ReviewCapture review;         // with --report: the motion before and after, for the page
+};
+
+// What this run does to the clip, kept with it in a library output.
+void record_provenance(const ClipState& state, ClipProvenance& p) {
+  const ResolvedSettings& r = state.resolved;
+  p.method = r.unchanged ? "unchanged" : std::string(to_string(r.settings.method));
+  // resolve_for_clip has replaced every automatic value with the clip's own.
+  p.parameters_json = r.settings.to_json().dump();
+  p.noise_sigma = r.noise_sigma;
+  p.pop_stage = !state.conditioning.pops.empty();
+  p.pops_repaired = state.conditioning.repaired;
+  p.pops = state.conditioning.pop_samples;
+}
+
+}  // namespace
+
+RunSummary run_job(const Job& job) {
+  const auto start = std::chrono::steady_clock::now();
+  RunSummary summary;
+  summary.command = job.label;
+
+  std::vector<std::size_t> selection = job.selection;
+  if (selection.empty() && job.source->count() > 0) {
+    selection.resize(job.source->count());
+    std::iota(selection.begin(), selection.end(), std::size_t(0));
+  }
+
+  summary.threads =
+      int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+
+  Progress progress(job.label, selection.size(),
+                    job.run.progress && !job.run.json && Progress::stderr_is_terminal());
+  const FilterSettings& settings = job.filter;
+  ConditioningTally tally;
+  tally.mode = settings.pops;
+  tally.keep_garbage = settings.keep_garbage_joints;
+  AutomaticTally automatic;
+  // Jitter and skating before and after: for filters (not the copy of --method none, nor the
+  // transforms of `noise`, whose point is to change the motion).
+  const bool measure = settings.method != Method::none && !job.transform;
+  MotionTally motion;
+  FeetTally feet;
+  feet.lock = settings.lock_feet && settings.method != Method::none;
+  PipelineStages stages;
+  stages.count = selection.size();
+  stages.read = [&](WorkItem& item) {
+    const std::size_t index = selection[item.index];
+    item.name = job.source->name(index);
+    std::string error;
+    std::optional<Clip> clip = job.source->read(index, &error);
+    if (!clip) return item.fail(error);
+    item.input = std::move(*clip);
+  };
+  stages.split = [&](WorkItem& item) -> std::vector<Shard> {
+    if (std::string why = check_clip_values(item.input); !why.empty()) {
+      item.fail(why);
+      return {};
+    }
+    // Filters expect each joint's curve on one hemisphere (spec "Sign continuity"); a library
+    // written by another tool may not be. Same rotations, so harmless for `none`.
+    make_hemisphere_continuous(item.input.rotation_span());
+    MotionMeasure before;
+    if (measure) before = measure_motion(item.input);
+    ReviewCapture review;
+    if (job.review) review = begin_review(item.input);
+    ClipConditioning conditioning = condition_clip(settings, item.input);
+    ClipState state{resolve_for_clip(settings, item.input, conditioning.garbage),
+                    {},
+                    std::move(conditioning),
+                    std::move(before),
+                    {},
+                    {},
+                    std::move(review)};
+    if (settings.method != Method::none) record_provenance(state, item.input.provenance);
+    // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
+    if (feet.lock) {
+      state.feet = detect_feet(item.input);
+      ClipProvenance& p = item.input.provenance;
+      p.feet = settings.method != Method::none;
+      for (std::size_t leg = 0; leg < state.feet.legs.size(); ++leg)
+        for (const ContactInterval& c : state.feet.contacts[leg])
+          p.contacts.insert(p.contacts.end(), {state.feet.legs[leg].ankle, c.begin, c.end});
+    }
+    item.context = std::move(state);
+    if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
+      item.output = std::move(item.input);
+      item.input = {};
+      return {};
+    }
+    item.output = item.input;  // skeleton, frame time, source; the shards overwrite the tensors
+    return plan_shards(std::any_cast<ClipState&>(item.context).resolved.settings, item.input.frames,
+                       item.input.joints());
+  };
+  stages.process = [&](WorkItem& item, const Shard& shard) {
+    const auto& state = std::any_cast<const ClipState&>(item.context);
+    if (const Status s = run_shard(state.resolved, item.input, item.output, shard); !s.ok())
+      item.fail(s.message());
+  };
+  stages.finish = [&](WorkItem& item) {
+    item.input = {};  // free the input early: only the output goes on
+    if (feet.lock) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments);
+          !s.ok())
+        return item.fail("foot lock: " + s.message());
+    }
+    if (measure) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      state.after = measure_motion(item.output, &state.before);
+    }
+    if (job.review) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      finish_review(state.review, item.output, state.conditioning.pop_samples);
+    }
+    if (job.transform) {
+      if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
+        return item.fail(s.message());
+    }
+    std::string error;
+    if (!job.sink->prepare(item.output, std::any_cast<ClipState&>(item.context).prepared, &error))
+      item.fail(error);
+  };
+  stages.write = [&](WorkItem& item) {
+    const std::size_t index = selection[item.index];
+    if (item.error.empty()) {
+      std::string error;
+      auto& state = std::any_cast<ClipState&>(item.context);
+      if (!job.sink->write(job.source->clip_path(index), job.source->relative_path(index),
+                           state.prepared, &error))
+        item.fail(error);
+    }
+    if (item.error.empty()) {
+      summary.add_clip(std::size_t(item.output.frames), std::size_t(item.output.joints()));
+      const auto& state = std::any_cast<const ClipState&>(item.context);
+      tally.add(item.name, item.output, state.conditioning);
+      automatic.add(item.name, state.resolved);
+      if (measure) motion.add(item.name, state.before, state.after);
+      if (feet.lock) feet.add(item.name, item.output, state.feet);
+      if (job.review) {
+        auto& review = std::any_cast<ClipState&>(item.context).review;
+        job.review->add({item.name, &item.output, &state.resolved, &state.conditioning, &state.feet,
+                         measure ? &state.before : nullptr, measure ? &state.after : nullptr},
+                        std::move(review));
+      }
+    } else {
+      summary.failed.push_back({item.name, item.error});
+      if (job.review) job.review->add_failure(item.name, item.error);
+    }
+    progress.advance(std::size_t(item.output.frames), !item.error.empty());
+    item.output = {};
+    item.context.reset();
+  };
+  PipelineOptions options;
+  options.cancel = job.run.cancel;
+  const std::size_t read = run_pipeline(stages, options);
+  progress.finish();
+  summary.interrupted = read < selection.size();
+  if (settings.method != Method::none) {
+    tally.write_to(summary.extra);
+    feet.write_to(summary.extra);
+  }
+  automatic.write_to(summary.extra);
+  motion.write_to(summary.extra);
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace mocap::engine

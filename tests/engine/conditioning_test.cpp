@@ -1,0 +1,360 @@
+// The engine's stage before the filters (engine/clip/clip_conditioning.hpp): pop repair by frame
+// rate, garbage joints found, kept as they came and out of nlpm's distance; --pops off is the
+// spec's filter exactly; --method auto; what the --json summary reports.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "core/quaternion.hpp"
+#include "engine/clip/clip_conditioning.hpp"
+#include "engine/clip/filter_settings.hpp"
+#include "engine/library/demo_library.hpp"
+#include "engine/run/pipeline.hpp"
+#include "io/bvh_writer.hpp"
+#include "kernels/noise_model.hpp"
+#include "tests/test_support.hpp"
+
+namespace mocap {
+namespace {
+
+namespace fs = std::filesystem;
+using engine::ClipConditioning;
+using engine::FilterSettings;
+using engine::Method;
+using engine::PopsMode;
+
+constexpr int kFlipping = 3, kConstant = 7, kPopped = 5;
+
+// The demo's 120 fps walk with one joint flipping by ~pi every 6 frames (an uncaptured thumb),
+// one constant joint, light jitter everywhere else, and pops on one joint: one, two and three in
+// a row. `pops` receives the popped frames.
+Clip test_clip(double fps_divisor, std::vector<int>* pops) {
+  Clip clip = engine::make_demo_library()[0].clip;
+  EXPECT_NEAR(clip.frame_time, 1.0 / 120, 1e-9);
+  const int J = clip.joints();
+  add_noise(GaussianNoise{0.003, 7}, clip.rotation_span());
+  for (int t = 0; t < clip.frames; ++t) {
+    float* c = &clip.rotations[(std::size_t(t) * J + kConstant) * 4];
+    c[0] = 1, c[1] = c[2] = c[3] = 0;
+    const Quat base = exp(Vec3{0, 0, 0.3});
+    const Quat flip = (t / 6) % 2 ? base * exp(Vec3{3.04, 0, 0}) : base;  // 0.1 rad short of pi
+    store_quat(flip, &clip.rotations[(std::size_t(t) * J + kFlipping) * 4]);
+  }
+  if (fps_divisor > 1) {  // every 4th frame: the same motion at 30 fps
+    const int step = int(fps_divisor), frames = clip.frames / step;
+    for (int t = 0; t < frames; ++t)
+      std::memmove(&clip.rotations[std::size_t(t) * J * 4],
+                   &clip.rotations[std::size_t(t) * step * J * 4], sizeof(float) * J * 4);
+    clip.frames = frames;
+    clip.frame_time *= step;
+    clip.rotations.resize(std::size_t(frames) * J * 4);
+    clip.translations.resize(std::size_t(frames) * J * 3);
+  }
+  for (int first : {20, 50, 90}) {
+    const int run = first == 20 ? 1 : first == 50 ? 2 : 3;
+    for (int t = first; t < first + run; ++t) {
+      float* q = &clip.rotations[(std::size_t(t) * J + kPopped) * 4];
+      store_quat(load_quat(q) * exp(Vec3{0, 0.7, 0.2}), q);
+      if (pops) pops->push_back(t);
+    }
+  }
+  make_hemisphere_continuous(clip.rotation_span());
+  return clip;
+}
+
+// The first frame where joint j's rotation differs in any bit between a and b; -1 if none.
+int first_changed_frame(const Clip& a, const Clip& b, int j) {
+  for (int t = 0; t < a.frames; ++t) {
+    const std::size_t at = (std::size_t(t) * std::size_t(a.joints()) + std::size_t(j)) * 4;
+    if (std::memcmp(&a.rotations[at], &b.rotations[at], 4 * sizeof(float)) != 0) return t;
+  }
+  return -1;
+}
+
+double error_at(const Clip& a, const Clip& b, int t, int j) {
+  return test::rotation_error(a.rotation_view(), b.rotation_view(), t, j);
+}
+
+TEST(Conditioning, RepairsPopsAndFindsGarbageJointsAt120Fps) {
+  std::vector<int> pops;
+  Clip clip = test_clip(1, &pops);
+  const Clip before = clip;
+  const ClipConditioning c =
+      engine::condition_rotations(PopsMode::automatic, clip.rotation_span(), clip.frame_time);
+  EXPECT_TRUE(c.repaired);
+  EXPECT_EQ(to_string(c.joints[kFlipping].joint_class), "flipping");
+  EXPECT_EQ(to_string(c.joints[kConstant].joint_class), "constant");
+  EXPECT_TRUE(c.garbage[kFlipping] && c.garbage[kConstant]);
+  EXPECT_EQ(std::count(c.garbage.begin(), c.garbage.end(), 1), 2);
+  // Every pop found, nothing else, and each repaired to within the jitter of its neighbours.
+  EXPECT_EQ(c.pops[kPopped], int(pops.size()));
+  EXPECT_EQ(c.pop_count(), pops.size());
+  for (int t : pops) EXPECT_GT(error_at(before, clip, t, kPopped), 0.5) << "frame " << t;
+  // The flipping joint is left bit for bit as it came.
+  EXPECT_EQ(first_changed_frame(clip, before, kFlipping), -1);
+}
+
+TEST(Conditioning, RepairedPopsLandOnTheMotion) {
+  std::vector<int> pops;
+  Clip clip = test_clip(1, &pops);
+  Clip clean = test_clip(1, nullptr);
+  // The clean version: same clip without the pops (rebuild it from the same seed, undo pops).
+  for (int t : pops) {
+    float* q = &clean.rotations[(std::size_t(t) * clean.joints() + kPopped) * 4];
+    store_quat(load_quat(q) * exp(Vec3{0, -0.7, -0.2}), q);
+  }
+  engine::condition_rotations(PopsMode::repair, clip.rotation_span(), clip.frame_time);
+  for (int t : pops) EXPECT_LT(error_at(clip, clean, t, kPopped), 0.03) << "frame " << t;
+}
+
+TEST(Conditioning, BelowSixtyFpsAutoOnlyCountsAndDetectNeverChangesAnything) {
+  std::vector<int> pops;
+  Clip clip = test_clip(4, &pops);
+  const Clip before = clip;
+  const ClipConditioning c =
+      engine::condition_rotations(PopsMode::automatic, clip.rotation_span(), clip.frame_time);
+  EXPECT_FALSE(c.repaired);
+  EXPECT_GE(c.pops[kPopped], 1);
+  EXPECT_EQ(clip.rotations, before.rotations);
+
+  Clip fast = test_clip(1, nullptr);
+  const Clip fast_before = fast;
+  const ClipConditioning d =
+      engine::condition_rotations(PopsMode::detect, fast.rotation_span(), fast.frame_time);
+  EXPECT_FALSE(d.repaired);
+  EXPECT_EQ(d.pops[kPopped], 6);
+  EXPECT_EQ(fast.rotations, fast_before.rotations);
+}
+
+TEST(Conditioning, PopsOffIsTheSpecsFilterOnEveryJoint) {
+  Clip clip = test_clip(1, nullptr);
+  FilterSettings s;
+  s.method = Method::nlpm;
+  s.pops = PopsMode::off;
+  const Clip before = clip;
+  const ClipConditioning c = engine::condition_clip(s, clip);
+  EXPECT_EQ(clip.rotations, before.rotations);
+  EXPECT_EQ(c.pop_count(), 0u);
+  const auto resolved = engine::resolve_for_clip(s, clip, c.garbage);
+  EXPECT_TRUE(resolved.kept_joints.empty());
+  EXPECT_TRUE(resolved.distance_joints.empty());  // the whole pose, as the spec says
+  // And the default of the settings struct is off.
+  EXPECT_EQ(FilterSettings{}.pops, PopsMode::off);
+}
+
+TEST(Conditioning, GarbageJointsAreKeptAsTheyCameAndLeftOutOfNlpmsDistance) {
+  Clip clip = test_clip(1, nullptr);
+  FilterSettings s;
+  s.method = Method::nlpm;
+  s.pops = PopsMode::repair;
+  const ClipConditioning c = engine::condition_clip(s, clip);
+  const auto resolved = engine::resolve_for_clip(s, clip, c.garbage);
+  ASSERT_EQ(resolved.kept_joints.size(), std::size_t(clip.joints()));
+  EXPECT_EQ(resolved.kept_joints[kFlipping], 1);
+  EXPECT_EQ(resolved.distance_joints[kFlipping], 0);
+  EXPECT_EQ(resolved.distance_joints[kPopped], 1);
+  Clip out = clip;
+  std::fill(out.rotations.begin(), out.rotations.end(), 0.0f);
+  ASSERT_TRUE(engine::run_shard(resolved, clip, out, {0, clip.joints(), 0, clip.frames}).ok());
+  for (int j : {kFlipping, kConstant}) EXPECT_EQ(first_changed_frame(out, clip, j), -1) << j;
+  // The other joints were filtered.
+  EXPECT_GT(test::rotation_errors(out.rotation_view(), clip.rotation_view()).max, 1e-4);
+
+  // --garbage-joints filter: filtered like the others, still out of the distance.
+  s.keep_garbage_joints = false;
+  const auto filtered = engine::resolve_for_clip(s, clip, c.garbage);
+  EXPECT_TRUE(filtered.kept_joints.empty());
+  EXPECT_EQ(filtered.distance_joints[kFlipping], 0);
+}
+
+TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
+  FilterSettings s;
+  s.method = Method::automatic;
+  const FilterSettings low = engine::choose_automatic(s, 0.01);
+  EXPECT_EQ(low.method, Method::nlpm);
+  EXPECT_LT(low.nlpm_range, 0);  // automatic: resolved from sigma_hat
+  const FilterSettings high = engine::choose_automatic(s, 0.1);
+  EXPECT_EQ(high.method, Method::bof);
+  EXPECT_EQ(high.bilateral.sigma_g, 0);
+
+  Clip clip = test_clip(1, nullptr);
+  s.pops = PopsMode::automatic;
+  const ClipConditioning c = engine::condition_clip(s, clip);
+  const auto resolved = engine::resolve_for_clip(s, clip, c.garbage);
+  ASSERT_FALSE(resolved.unchanged);
+  EXPECT_EQ(resolved.settings.method, Method::nlpm);  // jitter of 0.003 rad: low noise
+  // At this light a noise auto's floors decide (engine/clip/filter_settings.hpp).
+  EXPECT_NEAR(resolved.settings.nlpm.h,
+              std::max(engine::kNlpmAutoFactor * resolved.noise_sigma, engine::kAutoNlpmMinH),
+              1e-12);
+  EXPECT_NEAR(
+      resolved.settings.nlpm.range_sigma,
+      std::max(engine::kNlpmAutoRangeFactor * resolved.noise_sigma, engine::kAutoNlpmMinRange),
+      1e-12);
+  // The flipping joint is left out of the noise estimate: it stays near the added jitter.
+  EXPECT_GT(resolved.noise_sigma, 0.001);
+  EXPECT_LT(resolved.noise_sigma, 0.006);
+}
+
+// The 120 fps test clip written as in/walk.bvh, and `mocap-clean clean` run on it.
+class ConditioningCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    clip = test_clip(1, &pops);
+    std::string error;
+    fs::create_directories(dir / "in");
+    ASSERT_TRUE(io::write_bvh(clip, dir / "in/walk.bvh", &error)) << error;
+  }
+  // `clean in -o OUT OPTIONS`, over an earlier OUT.
+  test::CommandResult clean(const std::string& out, const std::string& options) {
+    fs::remove_all(dir / out);
+    return test::run_cli("clean '" + (dir / "in").string() + "' -o '" + (dir / out).string() +
+                         "' " + options);
+  }
+  test::TempDir dir{"conditioning"};
+  std::vector<int> pops;
+  Clip clip;
+};
+
+TEST_F(ConditioningCli, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
+  // clean's defaults: --method auto, with the pop stage in `auto` mode.
+  const auto r = clean("out", "--json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["pops"]["mode"], "auto");
+  EXPECT_EQ(j["pops"]["samples"].get<int>(), int(pops.size())) << j["pops"].dump();
+  EXPECT_EQ(j["pops"]["repaired"].get<int>(), int(pops.size()));
+  EXPECT_EQ(j["pops"]["by_joint"][clip.skeleton->joint_names[kPopped]].get<int>(),
+            int(pops.size()));
+  ASSERT_EQ(j["garbage_joints"]["joints"].get<int>(), 2) << j["garbage_joints"].dump();
+  const auto& listed = j["garbage_joints"]["by_clip"][0]["joints"];
+  EXPECT_EQ(listed[0]["joint"], clip.skeleton->joint_names[kFlipping]);
+  EXPECT_EQ(listed[0]["class"], "flipping");
+  EXPECT_EQ(j["garbage_joints"]["handling"], "kept as they came");
+
+  // Without --json the closing line says it too.
+  const auto human = clean("out2", "--method bof --pops auto");
+  ASSERT_EQ(human.exit_code, 0) << human.err;
+  EXPECT_NE(human.err.find("pops: 6 found in 1 clips"), std::string::npos) << human.err;
+  EXPECT_NE(human.err.find("garbage joints"), std::string::npos) << human.err;
+
+  // `info --joints` names them too, from the library.
+  const std::string lib = (dir / "lib.h5").string();
+  ASSERT_EQ(test::run_cli("import '" + (dir / "in").string() + "' -o '" + lib + "'").exit_code, 0);
+  const auto info = test::run_cli("info '" + lib + "' --joints --json");
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  const auto i = nlohmann::json::parse(info.out);
+  EXPECT_EQ(i["garbage_joints"]["joints"], 2);
+  EXPECT_EQ(i["garbage_joints"]["by_clip"][0]["joints"][1]["joint"],
+            clip.skeleton->joint_names[kConstant]);
+  EXPECT_EQ(i["garbage_joints"]["by_clip"][0]["joints"][1]["class"], "constant");
+}
+
+TEST_F(ConditioningCli, ANamedMethodIsTheSpecsFilterUnlessAPopStageIsAsked) {
+  const auto summary = [&](const std::string& out, const std::string& options) {
+    const auto r = clean(out, options + " --json");
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return nlohmann::json::parse(r.out);
+  };
+  const auto read = [&](const std::string& out) { return test::read_text(dir / out / "walk.bvh"); };
+  for (const std::string method : {"bof", "nlpm", "gaussian"}) {
+    const auto named = summary("named", "--method " + method);
+    EXPECT_EQ(named["pops"]["mode"], "off") << method;
+    EXPECT_FALSE(named.contains("garbage_joints")) << method;
+    summary("off", "--method " + method + " --pops off");
+    summary("auto", "--method " + method + " --pops auto");
+    EXPECT_EQ(read("named"), read("off")) << method;
+    EXPECT_NE(read("named"), read("auto")) << method << ": the pops were not repaired";
+  }
+}
+
+TEST_F(ConditioningCli, TheSummarySaysWhatTheAutomaticParametersBecame) {
+  auto r = clean("out", "--json");  // --method auto
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  auto j = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(j.contains("automatic")) << r.out;
+  const auto& chosen = j["automatic"]["by_clip"][0];
+  EXPECT_EQ(chosen["clip"], "walk.bvh");
+  EXPECT_EQ(chosen["method"], "nlpm");  // light jitter: nlpm with its range term
+  const double sigma = chosen["noise_sigma"].get<double>();
+  EXPECT_GT(sigma, 0.001);
+  EXPECT_LT(sigma, 0.006);
+  // auto's floors (engine/clip/filter_settings.hpp) hold at this light a noise.
+  EXPECT_NEAR(chosen["parameters"]["h"].get<double>(),
+              std::max(engine::kNlpmAutoFactor * sigma, engine::kAutoNlpmMinH), 1e-12);
+  EXPECT_NEAR(chosen["parameters"]["range_sigma"].get<double>(),
+              std::max(engine::kNlpmAutoRangeFactor * sigma, engine::kAutoNlpmMinRange), 1e-12);
+  EXPECT_GE(chosen["parameters"]["translation_sigma_t"].get<double>(), 0.0);
+  EXPECT_EQ(j["automatic"]["methods"]["nlpm"], 1);
+
+  // bof asked for its automatic widths: the widths it used.
+  r = clean("out", "--method bof --sigma-g 0 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  j = nlohmann::json::parse(r.out);
+  EXPECT_NEAR(
+      j["automatic"]["by_clip"][0]["parameters"]["sigma_g"].get<double>(),
+      engine::kBofAutoSigmaGFactor * j["automatic"]["by_clip"][0]["noise_sigma"].get<double>(),
+      1e-12);
+  EXPECT_EQ(j["automatic"]["by_clip"][0]["parameters"]["sigma_t"], 1.0);  // given, kept
+
+  // Nothing automatic, nothing reported; the closing line says it otherwise.
+  r = clean("out", "--method bof --json");
+  EXPECT_FALSE(nlohmann::json::parse(r.out).contains("automatic")) << r.out;
+  r = clean("out", "");
+  EXPECT_NE(r.err.find("automatic parameters: nlpm on 1 clip; estimated noise"), std::string::npos)
+      << r.err;
+}
+
+// The filter of the settings over the whole clip, shard by shard as the engine runs it.
+Clip filtered(const FilterSettings& settings, const Clip& clip) {
+  const auto resolved = engine::resolve_for_clip(settings, clip);
+  Clip out = clip;
+  for (const auto& shard : engine::plan_shards(resolved.settings, clip.frames, clip.joints()))
+    EXPECT_TRUE(engine::run_shard(resolved, clip, out, shard).ok());
+  return out;
+}
+
+TEST(Conditioning, SplitImpossibleFiltersEachSegmentAsAClipOfItsOwn) {
+  Clip clip = test_clip(1, nullptr);
+  const int J = clip.joints();
+  // A synthetic "T-pose" frame 0: one joint 2.5 rad away from frame 1.
+  float* q = &clip.rotations[(0 * std::size_t(J) + 2) * 4];
+  store_quat(load_quat(&clip.rotations[(std::size_t(J) + 2) * 4]) * exp(Vec3{2.5, 0, 0}), q);
+  make_hemisphere_continuous(clip.rotation_span());
+  for (Method method : {Method::bof, Method::nlpm, Method::gaussian}) {
+    FilterSettings s;
+    s.method = method;
+    s.bilateral.sigma_g = 0.1;
+    s.nlpm.h = 0.02;
+    s.shard_frames = 64;  // nlpm's time blocks straddle nothing special: any block works
+    s.split_impossible = true;
+    const auto resolved = engine::resolve_for_clip(s, clip);
+    ASSERT_EQ(resolved.segments.size(), 2u);
+    EXPECT_EQ(resolved.segments[0].end, 1);
+    const Clip split = filtered(s, clip);
+    // Frame 0 alone: a 1-frame clip comes back unchanged.
+    EXPECT_EQ(std::memcmp(split.rotations.data(), clip.rotations.data(), 4 * J * sizeof(float)), 0);
+    // The rest is exactly the filter of the clip without frame 0.
+    Clip rest = clip;
+    rest.frames -= 1;
+    rest.rotations.erase(rest.rotations.begin(), rest.rotations.begin() + 4 * J);
+    rest.translations.erase(rest.translations.begin(), rest.translations.begin() + 3 * J);
+    s.split_impossible = false;
+    const Clip expected = filtered(s, rest);
+    EXPECT_TRUE(std::equal(expected.rotations.begin(), expected.rotations.end(),
+                           split.rotations.begin() + 4 * J))
+        << to_string(method);
+    // Without the split the jump is smeared into frame 1 (bof, whose range weights see the jump
+    // as an edge, smears it least).
+    const Clip smeared = filtered(s, clip);
+    EXPECT_GT(test::rotation_error(smeared.rotation_view(), split.rotation_view(), 1, 2),
+              method == Method::bof ? 1e-4 : 1e-2)
+        << to_string(method);
+  }
+}
+
+}  // namespace
+}  // namespace mocap

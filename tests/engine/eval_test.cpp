@@ -1,0 +1,473 @@
+// `mocap-clean eval` and its parts: the report end to end on two short synthetic clips, the
+// impossible-step split (kernels/motion_split.hpp) on synthetic and real clips, foot skating,
+// end effectors and units, the grid and noise specs.
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "engine/clip/filter_settings.hpp"
+#include "engine/eval/eval_metrics.hpp"
+#include "engine/eval/eval_run.hpp"
+#include "engine/eval/eval_spec.hpp"
+#include "engine/eval/svg_plot.hpp"
+#include "engine/library/demo_library.hpp"
+#include "io/bvh_reader.hpp"
+#include "io/bvh_writer.hpp"
+#include "kernels/motion_split.hpp"
+#include "kernels/noise_estimate.hpp"
+#include "kernels/noise_model.hpp"
+#include "tests/test_support.hpp"
+
+namespace mocap {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace engine::eval;
+
+// Two demo clips cut to 150 frames, written as BVH below `dir`.
+void write_short_clips(const fs::path& dir) {
+  const auto demo = engine::make_demo_library();
+  for (int i : {0, 2}) {
+    Clip clip = demo[std::size_t(i)].clip;
+    clip.frames = 150;
+    clip.rotations.resize(std::size_t(clip.frames) * clip.joints() * 4);
+    clip.translations.resize(std::size_t(clip.frames) * clip.joints() * 3);
+    std::string error;
+    const fs::path target = dir / demo[std::size_t(i)].relative_path;
+    fs::create_directories(target.parent_path());
+    ASSERT_TRUE(io::write_bvh(clip, target, &error)) << error;
+  }
+}
+
+// "| 43.21 / 42.10 | 40.00 / 39.99 |": two cells, each two numbers with 2 decimals.
+bool two_pair_cells(std::string row) {
+  // A best point on the edge of its grid is marked "43.21* / 42.10": the mark is not a digit.
+  std::erase(row, '*');
+  double a = 0, b = 0, c = 0, d = 0;
+  if (std::sscanf(row.c_str(), "| %lf / %lf | %lf / %lf |", &a, &b, &c, &d) != 4) return false;
+  // Exactly two decimals: re-read the digits after each point.
+  int n = 0;
+  for (std::size_t p = row.find('.'); p != std::string::npos; p = row.find('.', p + 1)) {
+    if (p + 3 >= row.size() || !std::isdigit(static_cast<unsigned char>(row[p + 1])) ||
+        !std::isdigit(static_cast<unsigned char>(row[p + 2])) || row[p + 3] != ' ')
+      return false;
+    ++n;
+  }
+  return n == 4;
+}
+
+nlohmann::json without_timing(nlohmann::json report) {
+  report.erase("timing");
+  return report;
+}
+
+TEST(EvalCommand, WritesTheReportWithTheExpectedStructure) {
+  test::TempDir in("eval-in"), out("eval-out"), out1("eval-out1");
+  write_short_clips(in.path());
+  const std::string common =
+      " --noise gaussian:0.03 --noise impulse --methods bof,nlpm,kalman --grid bof.sigma_g=0.1,0.3"
+      " --grid bof.sigma_t=1 --grid nlpm.h=0.02,0.05 --grid kalman.lambda=0.01 --seed 3"
+      " --pops off";
+  const auto r = test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
+                               "'" + common + " --threads 2 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary["clips"], 2);
+  EXPECT_EQ(summary["frames"], 300);
+  // (2 + 1) + (2 + 1) + (1 + 1) points x 2 conditions x 2 clips.
+  EXPECT_EQ(summary["tasks"], 8 * 2 * 2);
+  ASSERT_EQ(summary["table"].size(), 3u * 2u);
+
+  const auto report = nlohmann::json::parse(test::read_text(out / "report.json"));
+  ASSERT_EQ(report["clips"].size(), 2u);
+  for (const auto& clip : report["clips"]) {
+    EXPECT_EQ(clip["frames"], 150);
+    EXPECT_TRUE(clip["impossible_steps"].empty()) << clip["name"];
+    EXPECT_EQ(clip["segments"].size(), 1u);
+    EXPECT_EQ(clip["effectors"].size(), 4u) << clip["effectors"].dump();
+  }
+  ASSERT_EQ(report["conditions"].size(), 2u);
+  EXPECT_EQ(report["conditions"][0]["label"], "gaussian 0.03");
+  EXPECT_EQ(report["conditions"][1]["label"], "impulse 0.01");
+  ASSERT_EQ(report["methods"].size(), 3u);
+  const std::size_t grid_sizes[] = {2, 2, 1};
+  for (std::size_t m = 0; m < 3; ++m) {
+    const auto& method = report["methods"][m];
+    ASSERT_EQ(method["grid"].size(), grid_sizes[m]) << method["method"];
+    ASSERT_EQ(method["best_point"].size(), 2u);
+    for (std::size_t c = 0; c < 2; ++c) {
+      const double noisy = report["conditions"][c]["noisy"]["psnr_db"];
+      const int best = method["best_point"][c];
+      ASSERT_GE(best, 0);
+      const auto& cell = method["grid"][std::size_t(best)]["results"][c];
+      for (const char* key :
+           {"rmse_rad", "psnr_db", "end_effector_rmse_cm", "foot_skating_percent",
+            "angular_speed_rms_error", "mpjpe_mm", "jitter_mm", "acceleration_error_mm"})
+        EXPECT_TRUE(cell[key].is_number()) << method["method"] << " " << key;
+      // Every method at its best grid point beats doing nothing on this noise.
+      EXPECT_GT(cell["psnr_db"].get<double>(), noisy) << method["method"] << " condition " << c;
+      const auto& automatic = method["automatic"]["results"][c];
+      ASSERT_EQ(automatic["clips"].size(), 2u);
+      EXPECT_FALSE(automatic["clips"][0]["resolved"].empty());
+    }
+  }
+
+  const std::string table = test::read_text(out / "table.md");
+  EXPECT_NE(table.find("| method | gaussian 0.03 | impulse 0.01 |"), std::string::npos) << table;
+  // Rows "| bof | 43.21 / 42.10 | 40.00 / 39.99 |": in the tables of 2 decimals (joint position
+  // error, jitter and skating ratios, PSNR, RMSE, foot skating share), once per method.
+  int rows = 0;
+  std::istringstream lines(table);
+  for (std::string text; std::getline(lines, text);)
+    for (const std::string method : {"| bof ", "| nlpm ", "| kalman "})
+      if (text.rfind(method, 0) == 0 && two_pair_cells(text.substr(method.size()))) ++rows;
+  EXPECT_EQ(rows, 6 * 3) << table;
+
+  const std::string html = test::read_text(out / "index.html");
+  int images = 0;
+  const std::string tag = "<img src=\"";
+  for (std::size_t at = html.find(tag); at != std::string::npos; at = html.find(tag, at + 1)) {
+    const std::size_t begin = at + tag.size();
+    const std::string file = html.substr(begin, html.find('"', begin) - begin);
+    EXPECT_EQ(file.rfind("fig_", 0), 0u) << file;
+    const std::string svg = test::read_text(out / file);
+    EXPECT_EQ(svg.rfind("<svg", 0), 0u) << file;
+    EXPECT_NE(svg.find("<polyline"), std::string::npos) << file;
+    EXPECT_NE(svg.find("</svg>"), std::string::npos) << file;
+    ++images;
+  }
+  // curve, speed, iterations (bof and a gaussian condition are there); the PSNR-against-level
+  // plot needs two gaussian levels.
+  EXPECT_EQ(images, 3) << html;
+  EXPECT_FALSE(fs::exists(out / "fig_psnr.svg"));
+
+  // One thread gives the same report as two, and the table on stdout without --json.
+  const auto r1 = test::run_cli("eval '" + in.path().string() + "' -o '" + out1.path().string() +
+                                "'" + common + " --threads 1 --no-plots");
+  ASSERT_EQ(r1.exit_code, 0) << r1.err;
+  EXPECT_NE(r1.out.find("| bof | "), std::string::npos) << r1.out;
+  auto a = without_timing(report),
+       b = without_timing(nlohmann::json::parse(test::read_text(out1 / "report.json")));
+  a.erase("command_line");
+  b.erase("command_line");
+  a.erase("threads");
+  b.erase("threads");
+  EXPECT_EQ(a, b);
+}
+
+TEST(EvalCommand, PopStageRowsRunAfterThePopRepairAndBeatThePlainFiltersOnPops) {
+  test::TempDir in("eval-pops-in"), out("eval-pops-out");
+  write_short_clips(in.path());
+  const auto r =
+      test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
+                    "' --noise impulse --noise gaussian:0.01 --methods bof,nlpm-robust,auto"
+                    " --grid bof.sigma_g=0.1 --grid bof.sigma_t=1 --grid "
+                    "nlpm-robust.range_factor=5 --no-plots --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(test::read_text(out / "report.json"));
+  std::vector<std::string> labels;
+  for (const auto& m : report["methods"]) labels.push_back(m["method"]);
+  EXPECT_EQ(labels, (std::vector<std::string>{"bof", "nlpm-robust", "bof+pops", "nlpm-robust+pops",
+                                              "auto"}));
+  // Pops found on the impulse condition (the demo clips are 120 and 30 fps), none on jitter.
+  std::size_t found[2] = {0, 0};
+  for (std::size_t c = 0; c < 2; ++c)
+    for (const auto& clip : report["conditions"][c]["noisy_per_clip"])
+      found[c] += clip["pops_found"].get<std::size_t>();
+  EXPECT_GT(found[0], 10u);
+  EXPECT_EQ(found[1], 0u);
+  // On pops, the automatic bof after the pop stage beats the plain automatic bof (which does not
+  // see pops at all) by a wide margin; on jitter alone the stage changes nothing.
+  auto automatic_psnr = [&](std::size_t m, std::size_t c) {
+    return report["methods"][m]["automatic"]["results"][c]["psnr_db"].get<double>();
+  };
+  EXPECT_GT(automatic_psnr(2, 0), automatic_psnr(0, 0) + 3.0);
+  EXPECT_DOUBLE_EQ(automatic_psnr(2, 1), automatic_psnr(0, 1));
+  const double noisy_pops = report["conditions"][0]["noisy"]["psnr_db"];
+  EXPECT_GT(automatic_psnr(4, 0), noisy_pops + 3.0);
+}
+
+TEST(EvalCommand, UsageErrorsSayWhy) {
+  test::TempDir out("eval-usage");
+  const std::string o = " -o '" + out.path().string() + "'";
+  auto r = test::run_cli("eval x.bvh" + o + " --noise gaussian:");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("gaussian"), std::string::npos) << r.err;
+  r = test::run_cli("eval x.bvh" + o + " --methods bof,blur");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("blur"), std::string::npos) << r.err;
+  r = test::run_cli("eval x.bvh" + o + " --grid bof.h=0.1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("sigma_g"), std::string::npos) << r.err;  // lists what bof takes
+  r = test::run_cli("eval /nonexistent/folder" + o);
+  EXPECT_EQ(r.exit_code, 2);
+}
+
+TEST(EvalSpec, GridsAreCartesianProductsAndAlternativesReplaceEachOther) {
+  std::string error;
+  const auto g1 = parse_grid_override("bof.sigma_g=0.1,0.2,0.4", &error);
+  const auto g2 = parse_grid_override("nlpm.h_factor=1,1.5", &error);
+  ASSERT_TRUE(g1 && g2) << error;
+  const auto grids = build_grids({EvalMethod::bof, EvalMethod::nlpm}, {*g1, *g2});
+  ASSERT_EQ(grids.size(), 2u);
+  EXPECT_EQ(grids[0].points.size(), 3u * default_axes(EvalMethod::bof)[1].values.size());
+  ASSERT_EQ(grids[1].points.size(), 2u);  // h_factor replaced the default h axis
+  EXPECT_EQ(describe(grids[1].points[1]), "h_factor=1.5");
+  EXPECT_FALSE(parse_grid_override("bof.sigma_g=0.1,x", &error));
+  EXPECT_FALSE(parse_grid_override("blur.sigma=1", &error));
+  EXPECT_FALSE(parse_grid_override("bof", &error));
+
+  const auto noise = parse_noise("gaussian:0.008,0.03", &error);
+  ASSERT_EQ(noise.size(), 2u);
+  EXPECT_EQ(noise[1].label(), "gaussian 0.03");
+  const auto pops = parse_noise("impulse:0.02,0.1,0.5", &error);
+  ASSERT_EQ(pops.size(), 1u);
+  EXPECT_EQ(pops[0].impulse.max_angle, 0.5);
+  EXPECT_TRUE(parse_noise("impulse:2", &error).empty());  // a rate above 1
+  EXPECT_TRUE(parse_noise("pink:0.1", &error).empty());
+  EXPECT_EQ(default_noise_conditions().size(), 4u);
+}
+
+TEST(EvalNoise, SeedsDependOnTheClipAndConditionOnly) {
+  EXPECT_EQ(noise_seed(1, "a/b", "gaussian 0.03"), noise_seed(1, "a/b", "gaussian 0.03"));
+  EXPECT_NE(noise_seed(1, "a/b", "gaussian 0.03"), noise_seed(1, "a/c", "gaussian 0.03"));
+  EXPECT_NE(noise_seed(1, "a/b", "gaussian 0.03"), noise_seed(1, "a/b", "gaussian 0.12"));
+  EXPECT_NE(noise_seed(1, "a/b", "gaussian 0.03"), noise_seed(2, "a/b", "gaussian 0.03"));
+  const Clip clip = engine::make_demo_library()[0].clip;
+  NoiseCondition c;
+  c.sigma = 0.03;
+  EXPECT_EQ(make_noisy(clip, c, 5), make_noisy(clip, c, 5));
+  EXPECT_NE(make_noisy(clip, c, 5), make_noisy(clip, c, 6));
+}
+
+// A smooth random motion with one joint turned by `jump` rad between frames 49 and 50.
+std::vector<float> motion_with_jump(double jump, int joint) {
+  std::mt19937_64 rng(5);
+  std::vector<float> m = test::random_motion(rng, 100, 6, 0.5);
+  const Quat turn = exp(Vec3{0, jump, 0});
+  for (int t = 50; t < 100; ++t) {
+    float* q = &m[(std::size_t(t) * 6 + std::size_t(joint)) * 4];
+    store_quat(load_quat(q) * turn, q);
+  }
+  make_hemisphere_continuous({m.data(), 100, 6});
+  return m;
+}
+
+TEST(MotionSplit, FindsASyntheticTPoseJumpAndSplitsThere) {
+  const std::vector<float> m = motion_with_jump(120 * kPi / 180, 3);
+  const auto steps = find_impossible_steps({m.data(), 100, 6}, 1.0 / 120, MotionSplitParams{});
+  ASSERT_EQ(steps.size(), 1u);
+  EXPECT_EQ(steps[0].frame, 49);
+  EXPECT_EQ(steps[0].joint, 3);
+  EXPECT_NEAR(steps[0].angle, 120 * kPi / 180, 0.2);  // plus the motion's own step
+  const auto segments = split_segments(100, steps);
+  ASSERT_EQ(segments.size(), 2u);
+  EXPECT_EQ(segments[0].begin, 0);
+  EXPECT_EQ(segments[0].end, 50);
+  EXPECT_EQ(segments[1].begin, 50);
+  EXPECT_EQ(segments[1].end, 100);
+}
+
+TEST(MotionSplit, FastButPossibleMotionIsNotCut) {
+  // 0.83 rad per frame at 120 fps (100 rad/s) on top of the random motion: fast, not impossible.
+  const std::vector<float> m = motion_with_jump(0.83, 2);
+  EXPECT_TRUE(find_impossible_steps({m.data(), 100, 6}, 1.0 / 120, MotionSplitParams{}).empty());
+  // The same step is impossible at 30 fps only if it exceeds max_step: it does not.
+  EXPECT_TRUE(find_impossible_steps({m.data(), 100, 6}, 1.0 / 30, MotionSplitParams{}).empty());
+  EXPECT_DOUBLE_EQ(MotionSplitParams{}.step_threshold(1.0 / 120), 1.25);
+  EXPECT_DOUBLE_EQ(MotionSplitParams{}.step_threshold(1.0 / 30), 2.0);
+  EXPECT_EQ(split_segments(0, {}).size(), 0u);
+  EXPECT_FALSE((MotionSplitParams{-1, 2}.validate().ok()));
+}
+
+// An Euler channel wrapping from 179 to -179 degrees is a 2-degree step, not a jump: the reader
+// converts to quaternions and makes them hemisphere-continuous.
+TEST(MotionSplit, EulerWrapAroundsAreNotSteps) {
+  const std::string bvh =
+      "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n"
+      "  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
+      "  JOINT Arm\n  {\n    OFFSET 1 0 0\n    CHANNELS 3 Zrotation Yrotation Xrotation\n"
+      "    End Site\n    {\n      OFFSET 1 0 0\n    }\n  }\n}\nMOTION\nFrames: 4\n"
+      "Frame Time: 0.0083333\n"
+      "0 0 0 178 10 0 -179 20 5\n0 0 0 179 10 0 179 20 5\n0 0 0 -179 10 0 -178 20 5\n"
+      "0 0 0 -178 10 0 178 20 5\n";
+  const io::BvhReadResult r = io::parse_bvh(bvh, "wrap.bvh");
+  ASSERT_TRUE(r.clip) << r.error->what();
+  const RotationView v = r.clip->rotation_view();
+  for (int t = 0; t + 1 < 4; ++t)
+    for (int j = 0; j < 2; ++j)
+      EXPECT_LT(geodesic(load_quat(v.at(t, j)), load_quat(v.at(t + 1, j))), 0.08) << t << " " << j;
+  EXPECT_TRUE(find_impossible_steps(v, r.clip->frame_time, MotionSplitParams{}).empty());
+}
+
+// The CMU "Motionbuilder-friendly" clips start with a synthetic T-pose: exactly one cut, after
+// frame 0, in every clip but one. 06_14's LThumb (a joint CMU did not capture) flips by pi at
+// gimbal lock 16 times; those are the only other cuts (README "eval").
+TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrame) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  int exactly_one = 0;
+  for (const fs::path& file : test::shared_bvh_files()) {
+    const io::BvhReadResult r = io::read_bvh(file);
+    ASSERT_TRUE(r.clip) << file;
+    const auto steps =
+        find_impossible_steps(r.clip->rotation_view(), r.clip->frame_time, MotionSplitParams{});
+    ASSERT_FALSE(steps.empty()) << file;
+    EXPECT_EQ(steps[0].frame, 0) << file;
+    EXPECT_GT(steps[0].angle, 1.4) << file;
+    exactly_one += steps.size() == 1 ? 1 : 0;
+    for (std::size_t i = 1; i < steps.size(); ++i) {
+      EXPECT_EQ(r.clip->skeleton->joint_names[std::size_t(steps[i].joint)], "LThumb")
+          << file << " frame " << steps[i].frame;
+      EXPECT_GT(steps[i].angle, 3.0) << file << " frame " << steps[i].frame;
+    }
+  }
+  EXPECT_GE(exactly_one, int(test::shared_bvh_files().size()) - 1);
+}
+
+TEST(FootSkating, CountsOnlyLowFastHorizontalSteps) {
+  auto track = [](double height, double step, int frames) {
+    std::vector<Vec3> t;
+    for (int i = 0; i < frames; ++i) t.push_back({step * i, height, 0});
+    return t;
+  };
+  const std::vector<Segment> whole{{0, 10}};
+  double skates = 0, steps = 0;
+  count_skating(track(1.0, 3.0, 10), whole, 0.0, 1.0, &skates, &steps);
+  EXPECT_EQ(skates, 9);  // on the ground, sliding 3 cm a frame
+  EXPECT_EQ(steps, 9);
+  skates = steps = 0;
+  count_skating(track(1.0, 2.0, 10), whole, 0.0, 1.0, &skates, &steps);
+  EXPECT_EQ(skates, 0);  // 2 cm a frame is below the 2.5 cm limit
+  skates = steps = 0;
+  count_skating(track(10.0, 3.0, 10), whole, 0.0, 1.0, &skates, &steps);
+  EXPECT_EQ(skates, 0);  // in the air
+  skates = steps = 0;
+  // File units of 5.64 cm: 0.5 units a frame is 2.8 cm, 0.8 units high is 4.5 cm.
+  count_skating(track(0.8 + 3.0, 0.5, 10), whole, 3.0, kCmuCmPerUnit, &skates, &steps);
+  EXPECT_EQ(skates, 9);
+  // Steps across a cut and 1-frame segments are not counted.
+  skates = steps = 0;
+  count_skating(track(1.0, 3.0, 10), {{0, 4}, {4, 5}, {5, 10}}, 0.0, 1.0, &skates, &steps);
+  EXPECT_EQ(steps, 3 + 4);
+  EXPECT_EQ(skates, 7);
+}
+
+TEST(EvalGeometry, FindsHandsAndFeetByNameAndGuessesTheUnit) {
+  const Clip clip = engine::make_demo_library()[0].clip;
+  const std::vector<Segment> segments{{0, clip.frames}};
+  const ClipGeometry g = describe_clip(clip, 0, segments);
+  ASSERT_TRUE(g.by_name);
+  std::vector<std::string> names;
+  int feet = 0;
+  for (const Effector& e : g.effectors) {
+    names.push_back(e.name);
+    feet += e.foot ? 1 : 0;
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"LeftHand (End Site)", "LeftToe (End Site)",
+                                             "RightHand (End Site)", "RightToe (End Site)"}));
+  EXPECT_EQ(feet, 2);
+  EXPECT_EQ(g.unit_cm, 1.0);  // the demo skeleton is in cm: its hips are far above 25 units
+  EXPECT_TRUE(g.unit_guessed);
+  EXPECT_EQ(describe_clip(clip, 2.54, segments).unit_cm, 2.54);
+
+  // Without such names: the chain ends, and the two lowest are the feet.
+  Clip unnamed = clip;
+  auto skeleton = std::make_shared<Skeleton>(*clip.skeleton);
+  for (std::size_t j = 0; j < skeleton->joint_names.size(); ++j)
+    skeleton->joint_names[j] = "j" + std::to_string(j);
+  unnamed.skeleton = skeleton;
+  const ClipGeometry u = describe_clip(unnamed, 0, segments);
+  EXPECT_FALSE(u.by_name);
+  EXPECT_GE(u.effectors.size(), 4u);
+  std::vector<std::string> feet_joints;
+  for (const Effector& e : u.effectors)
+    if (e.foot) feet_joints.push_back(clip.skeleton->joint_names[std::size_t(e.site.joint)]);
+  EXPECT_EQ(feet_joints, (std::vector<std::string>{"LeftToe", "RightToe"}));
+}
+
+TEST(EvalGeometry, SharedCmuClipsAreGuessedAsCmuUnits) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  const io::BvhReadResult r = io::read_bvh(test::shared_bvh_files().front());
+  ASSERT_TRUE(r.clip);
+  const ClipGeometry g = describe_clip(*r.clip, 0, {{0, 1}, {1, r.clip->frames}});
+  EXPECT_NEAR(g.unit_cm, 5.644, 1e-3);
+  EXPECT_GT(g.hip_height_units, 14);
+  EXPECT_LT(g.hip_height_units, 22);
+}
+
+// The calibrated automatic rules (engine/clip/filter_settings.hpp) as the engine resolves them per
+// clip.
+TEST(AutomaticParameters, FollowTheEstimatedNoise) {
+  Clip clip = engine::make_demo_library()[0].clip;
+  add_noise(GaussianNoise{0.03, 9}, clip.rotation_span());
+  const double sigma_hat = estimate_noise(clip.rotation_view()).sigma;
+  ASSERT_NEAR(sigma_hat, 0.03, 0.006);
+
+  engine::FilterSettings bof;
+  bof.method = engine::Method::bof;
+  bof.bilateral.sigma_g = 0;
+  bof.bilateral.sigma_t = 0;
+  ASSERT_TRUE(bof.validate().ok());
+  const auto rb = engine::resolve_for_clip(bof, clip);
+  EXPECT_DOUBLE_EQ(rb.noise_sigma, sigma_hat);
+  EXPECT_DOUBLE_EQ(rb.settings.bilateral.sigma_g, engine::kBofAutoSigmaGFactor * sigma_hat);
+  EXPECT_NEAR(rb.settings.bilateral.sigma_t,
+              std::max(1.0, engine::kBofAutoSigmaTFactor * std::sqrt(sigma_hat)), 1e-9);
+  EXPECT_EQ(bof.to_json()["sigma_g"], "auto");
+  bof.bilateral.sigma_g = 0.2;  // given parameters stay as given
+  bof.bilateral.sigma_t = 1.5;
+  const auto given = engine::resolve_for_clip(bof, clip);
+  EXPECT_EQ(given.settings.bilateral.sigma_g, 0.2);
+  EXPECT_EQ(given.settings.bilateral.sigma_t, 1.5);
+
+  engine::FilterSettings nlpm;
+  nlpm.method = engine::Method::nlpm;
+  EXPECT_DOUBLE_EQ(engine::resolve_for_clip(nlpm, clip).settings.nlpm.h,
+                   engine::kNlpmAutoFactor * sigma_hat);
+
+  engine::FilterSettings kalman;
+  kalman.method = engine::Method::kalman;
+  ASSERT_TRUE(kalman.validate().ok());
+  EXPECT_DOUBLE_EQ(engine::resolve_for_clip(kalman, clip).settings.kalman.lambda,
+                   kalman_auto_lambda(sigma_hat, clip.frame_time));
+  kalman.kalman.lambda = -1;
+  EXPECT_FALSE(kalman.validate().ok());
+  EXPECT_EQ(engine::parse_method("kalman"), engine::Method::kalman);
+}
+
+TEST(Cli, CleansWithTheKalmanBaseline) {
+  test::TempDir in("kalman-in"), out("kalman-out");
+  write_short_clips(in.path());
+  const auto r = test::run_cli("clean '" + in.path().string() + "' -o '" + out.path().string() +
+                               "' --method kalman --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["clips"], 2);
+  EXPECT_TRUE(fs::exists(out / "walk/walk_120fps.bvh"));
+}
+
+TEST(SvgPlot, DrawsAxesSeriesAndLegendAndBreaksAtNonFinitePoints) {
+  LinePlot plot{"t<1>", "x", "y", false, 400, 300, {}};
+  plot.series.push_back({"a & b", {0, 1, 2, 3}, {1, 2, NAN, 4}, "", false, true, 1.5});
+  const std::string svg = render_svg(plot);
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("t&lt;1&gt;"), std::string::npos);
+  EXPECT_NE(svg.find("a &amp; b"), std::string::npos);
+  // Two pieces: before and after the NaN (plus the legend's line).
+  std::size_t lines = 0;
+  for (std::size_t p = svg.find("<polyline"); p != std::string::npos;
+       p = svg.find("<polyline", p + 1))
+    ++lines;
+  EXPECT_EQ(lines, 2u);
+  const std::vector<double> ticks = nice_ticks(0, 1, 5);
+  ASSERT_EQ(ticks.size(), 6u);
+  for (std::size_t i = 0; i < ticks.size(); ++i) EXPECT_NEAR(ticks[i], 0.2 * double(i), 1e-12);
+}
+
+}  // namespace
+}  // namespace mocap
