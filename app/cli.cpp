@@ -72,6 +72,9 @@ int run_cli(int argc, char** argv) {
       ->add_flag("--overwrite", clean.overwrite,
                  "write into an output folder that already holds files, replacing them")
       ->excludes(resume_flag);
+  clean_cmd->add_option("--report", clean.report_dir,
+                        "write a review page into this folder (open DIR/index.html): every clip, "
+                        "what cleaning did, the skeleton before and after in 3-D");
   clean.filter.add_to(*clean_cmd, "auto");
   add_run_options(*clean_cmd, clean.run);
   clean_cmd->footer(examples(
@@ -119,6 +122,9 @@ int run_cli(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   filter.output.add_to(*filter_cmd);
+  filter_cmd->add_option("--report", filter.report_dir,
+                         "write a review page into this folder (open DIR/index.html): every clip, "
+                         "what cleaning did, the skeleton before and after in 3-D");
   filter.filter.add_to(*filter_cmd, "auto");
   add_run_options(*filter_cmd, filter.run);
   filter_cmd->footer(

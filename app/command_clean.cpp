@@ -19,6 +19,7 @@
 #include "engine/clip/motion_check.hpp"
 #include "engine/run/automatic_tally.hpp"
 #include "engine/run/job.hpp"
+#include "engine/run/review_report.hpp"
 
 namespace mocap::engine {
 
@@ -167,6 +168,9 @@ int run_clean(const CleanCommand& command) {
   const FilterSettings settings = command.filter.settings();
   if (const Status s = settings.validate(); !s.ok()) return usage_error(s.message());
   const nlohmann::json parameters = settings.to_json();
+  Status report_error;
+  const auto review = open_review_report(command.report_dir, "clean", &report_error);
+  if (!report_error.ok()) return usage_error(report_error.message());
 
   std::vector<std::size_t> selection;
   const fs::path manifest_path = output_folder / kManifestName;
@@ -198,6 +202,7 @@ int run_clean(const CleanCommand& command) {
     job.selection = std::move(selection);
     job.filter = settings;
     job.run = command.run;
+    job.review = review.get();
     summary = run_in_process(job);
   }
   summary.extra["method"] = std::string(to_string(settings.method));
@@ -211,7 +216,7 @@ int run_clean(const CleanCommand& command) {
                  kept, sources.files.size());
   }
   report(summary, command.run.json);
-  return summary.exit_status();
+  return close_review_report(review.get(), summary, summary.exit_status());
 }
 
 }  // namespace mocap::engine

@@ -263,6 +263,13 @@ int run_filter(const FilterCommand& command) {
       make_provenance(std::string(to_string(settings.method)), settings.to_json(), command.input);
   if (finished_before(command.output, provenance))
     return report_finished_before("filter", command.output, command.run);
+  if (!command.report_dir.empty() && shard->active())
+    return usage_error("filter",
+                       "--report writes one page from one process: run it without "
+                       "--shard or mpirun");
+  Status report_error;
+  const auto review = open_review_report(command.report_dir, "filter", &report_error);
+  if (!report_error.ok()) return usage_error("filter", report_error.message());
   auto sink = open_library_sink(command.output, *shard, provenance, &error);
   if (!sink) return usage_error("filter", error);
   Job job;
@@ -271,7 +278,13 @@ int run_filter(const FilterCommand& command) {
   job.sink = sink.get();
   job.filter = settings;
   job.run = command.run;
-  return run_into_library(job, *sink, command.output, *shard, provenance, "filter");
+  job.review = review.get();
+  const auto start = std::chrono::steady_clock::now();
+  const int status = run_into_library(job, *sink, command.output, *shard, provenance, "filter");
+  RunSummary run;
+  run.command = "filter";
+  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return close_review_report(review.get(), run, status);
 }
 
 int run_export(const ExportCommand& command) {

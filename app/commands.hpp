@@ -14,6 +14,7 @@ struct CleanCommand {
   std::string output_dir;  // a folder, or a file ending in .bvh when there is one source file
   bool resume = false;     // keep the outputs an earlier run with the same parameters finished
   bool overwrite = false;  // write into a folder that already holds files
+  std::string report_dir;  // --report: the review page (engine/run/review_report.hpp)
   FilterOptions filter;
   RunOptions run;
 };
@@ -53,6 +54,7 @@ int run_import(const ImportCommand& command);
 struct FilterCommand {
   std::string input;
   LibraryOutput output;
+  std::string report_dir;  // --report: the review page (engine/run/review_report.hpp)
   FilterOptions filter;
   RunOptions run;
 };

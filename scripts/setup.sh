@@ -13,7 +13,10 @@ packages=(
   pybind11-dev python3-pybind11 python3-dev python3-pytest python3-scipy
   libopenmpi-dev openmpi-bin
   clang  # the libFuzzer targets in fuzz/ (-DMOCAP_FUZZ=ON with CXX=clang++)
+  chromium python3-pil  # the review page's browser test (tests/review_page)
 )
+# npm fetches three.js for the review page (--report); any node install that has npm will do.
+command -v npm >/dev/null 2>&1 || packages+=(npm)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -24,6 +27,15 @@ if ((${#missing[@]})); then
   [ "$(id -u)" -eq 0 ] || sudo="sudo"
   $sudo apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# three.js, bundled into the program for the review page (web/review/package-lock.json pins it).
+# Offline, the build goes on without it and `--report` says how to get it.
+if [ ! -f web/review/node_modules/three/build/three.module.min.js ]; then
+  if ! (cd web/review && npm ci --no-audit --no-fund --loglevel=error); then
+    echo "setup: could not install three.js with npm (offline?): mocap-clean --report will be" \
+      "unavailable until scripts/setup.sh runs again with the npm registry reachable" >&2
+  fi
 fi
 
 build_dir="${BUILD_DIR:-build}"

@@ -18,6 +18,8 @@
 namespace mocap::engine::eval {
 namespace {
 
+constexpr double kPlotDegrees = 180.0 / 3.14159265358979323846;  // axes a person reads
+
 constexpr const char* kMethodColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f0e",
                                          "#9467bd", "#8c564b", "#e377c2", "#17becf"};
 
@@ -154,14 +156,17 @@ bool curve_figures(const EvalResults& r, const EvalConfig& config, int c,
   const std::string condition = config.conditions[std::size_t(c)].label();
   LinePlot curve_plot{fmt::format("{}, {} ({})", clip.name, joint_name, condition),
                       "time (s)",
-                      fmt::format("Log(q_ref^-1 q), {} component (rad)", "xyz"[axis]),
+                      // Degrees: what a person reads (issue 17); the data stay in radians.
+                      fmt::format("rotation from the first clean pose shown, {} of the "
+                                  "rotation vector (degrees)",
+                                  "xyz"[axis]),
                       false,
                       760,
                       380,
                       {}};
   LinePlot speed_plot{fmt::format("Angular speed, {} {} ({})", clip.name, joint_name, condition),
                       "time (s)",
-                      "angular speed (rad/s)",
+                      "angular speed (degrees/s)",
                       false,
                       760,
                       380,
@@ -173,10 +178,10 @@ bool curve_figures(const EvalResults& r, const EvalConfig& config, int c,
     angular_speed({cv.rotations.data(), frames, joints}, clip.clean.frame_time, j, sp);
     for (int t = begin; t < end; ++t) {
       a.x.push_back(t * clip.clean.frame_time);
-      a.y.push_back(component(cv.rotations, t, axis));
+      a.y.push_back(component(cv.rotations, t, axis) * kPlotDegrees);
       if (t + 1 < end) {
         b.x.push_back(t * clip.clean.frame_time);
-        b.y.push_back(sp[std::size_t(t)]);
+        b.y.push_back(sp[std::size_t(t)] * kPlotDegrees);
       }
     }
     curve_plot.series.push_back(std::move(a));
@@ -283,7 +288,7 @@ bool psnr_figure(const EvalResults& r, const EvalConfig& config, const std::file
   });
   if (gaussian.size() < 2) return true;
   LinePlot plot{"PSNR gain over the noisy input",
-                "gaussian noise sigma (rad)",
+                "gaussian noise sigma (degrees)",
                 "PSNR gain (dB)",
                 true,
                 760,
@@ -299,10 +304,10 @@ bool psnr_figure(const EvalResults& r, const EvalConfig& config, const std::file
         label(config.grids[m]) + " auto", {}, {}, method_color(method), true, false, 1.4};
     for (std::size_t c : gaussian) {
       const int b = best_point(r, config, m, c);
-      best.x.push_back(config.conditions[c].sigma);
+      best.x.push_back(config.conditions[c].sigma * kPlotDegrees);
       const double noisy = pooled_noisy(r, c).psnr();
       best.y.push_back(b < 0 ? NAN : pooled(r, m, std::size_t(b), c).psnr() - noisy);
-      automatic.x.push_back(config.conditions[c].sigma);
+      automatic.x.push_back(config.conditions[c].sigma * kPlotDegrees);
       automatic.y.push_back(pooled(r, m, config.grids[m].points.size(), c).psnr() - noisy);
     }
     plot.series.push_back(std::move(best));

@@ -25,6 +25,7 @@ struct ClipState {
   ClipConditioning conditioning;
   MotionMeasure before, after;  // what a viewer sees, as read and as written
   ClipFeet feet;                // with lock_feet: found on the input, locked on the output
+  ReviewCapture review;         // with --report: the motion before and after, for the page
 };
 
 // What this run does to the clip, kept with it in a library output.
@@ -97,6 +98,11 @@ RunSummary run_job(const Job& job) {
       const Timed timed(times, StageTimes::metrics);
       before = measure_motion(item.input);
     }
+    ReviewCapture review;
+    if (job.review) {
+      const Timed timed(times, StageTimes::review);
+      review = begin_review(item.input);
+    }
     ClipConditioning conditioning;
     {
       const Timed timed(times, StageTimes::condition);
@@ -107,7 +113,8 @@ RunSummary run_job(const Job& job) {
       const Timed timed(times, StageTimes::resolve);
       resolved = resolve_for_clip(settings, item.input, conditioning.garbage);
     }
-    ClipState state{std::move(resolved), {}, std::move(conditioning), std::move(before), {}, {}};
+    ClipState state{std::move(resolved), {}, std::move(conditioning), std::move(before), {}, {},
+                    std::move(review)};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
     if (feet.lock) {
@@ -149,6 +156,11 @@ RunSummary run_job(const Job& job) {
       const Timed timed(times, StageTimes::metrics);
       state.after = measure_motion(item.output, &state.before);
     }
+    if (job.review) {
+      auto& state = std::any_cast<ClipState&>(item.context);
+      const Timed timed(times, StageTimes::review);
+      finish_review(state.review, item.output, state.conditioning.pop_samples);
+    }
     if (job.transform) {
       if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
         return item.fail(s.message());
@@ -175,8 +187,16 @@ RunSummary run_job(const Job& job) {
       automatic.add(item.name, state.resolved);
       if (measure) motion.add(item.name, state.before, state.after);
       if (feet.lock) feet.add(item.name, item.output, state.feet);
+      if (job.review) {
+        auto& review = std::any_cast<ClipState&>(item.context).review;
+        const Timed timed(times, StageTimes::review);
+        job.review->add({item.name, &item.output, &state.resolved, &state.conditioning, &state.feet,
+                         measure ? &state.before : nullptr, measure ? &state.after : nullptr},
+                        std::move(review));
+      }
     } else {
       summary.failed.push_back({item.name, item.error});
+      if (job.review) job.review->add_failure(item.name, item.error);
     }
     progress.advance(std::size_t(item.output.frames), !item.error.empty());
     item.output = {};

@@ -8,6 +8,7 @@
 #include "engine/clip/filter_settings.hpp"
 #include "engine/run/clip_sink.hpp"
 #include "engine/run/clip_source.hpp"
+#include "engine/run/review_report.hpp"
 #include "engine/run/run_options.hpp"
 #include "engine/run/run_summary.hpp"
 
@@ -23,6 +24,7 @@ struct Job {
   // function of the clip and its index in the source, so results do not depend on threads).
   std::function<Status(Clip&, std::size_t source_index)> transform;
   RunOptions run;
+  ReviewReport* review = nullptr;  // --report: each written clip goes on the review page
 };
 
 RunSummary run_job(const Job& job);

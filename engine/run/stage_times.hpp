@@ -23,6 +23,7 @@ class StageTimes {
     metrics,    // jitter and skating before and after
     prepare,    // BVH formatting or chunk compression
     write,      // output files (serial)
+    review,     // --report: the review page's data
     kStages
   };
 
