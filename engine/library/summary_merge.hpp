@@ -5,9 +5,9 @@
 
 namespace mocap::engine {
 
-// Adds `from`'s "pops", "garbage_joints", "automatic" and "stages" fields (ConditioningTally::write_to,
-// AutomaticTally::write_to, StageTimes) into `into`'s; every other field of `into` is kept as it is (the
-// ranks share the command, parameters and output).
+// Adds `from`'s "pops", "garbage_joints", "automatic" and "stages" fields
+// (ConditioningTally::write_to, AutomaticTally::write_to, StageTimes) into `into`'s; every other
+// field of `into` is kept as it is (the ranks share the command, parameters and output).
 void merge_tallies(nlohmann::json& into, const nlohmann::json& from);
 
 }  // namespace mocap::engine

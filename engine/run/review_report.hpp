@@ -96,7 +96,7 @@ std::unique_ptr<ReviewReport> open_review_report(const std::string& folder,
 // page could not be written (the error names the file).
 int close_review_report(const ReviewReport* review, const RunSummary& summary, int status);
 
-// The files built into the program (engine/review_assets.cpp): the page's template and script,
+// The files built into the program (engine/run/review_assets.cpp): the page's template and script,
 // and three.js (empty when the build had none).
 std::string_view review_page_template();
 std::string_view review_page_script();

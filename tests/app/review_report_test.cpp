@@ -1,5 +1,5 @@
-// --report DIR (engine/review_report.hpp): the data the review page shows, read back the way the
-// page reads it (base64, inflate, byte planes, int16 steps), against forward kinematics of the
+// --report DIR (engine/run/review_report.hpp): the data the review page shows, read back the way
+// the page reads it (base64, inflate, byte planes, int16 steps), against forward kinematics of the
 // clip as read and as written. The page itself is tested in chromium (tests/review_page).
 #include <gtest/gtest.h>
 #include <zlib.h>
