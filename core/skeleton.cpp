@@ -27,6 +27,12 @@ int Skeleton::channel_count() const {
   return n;
 }
 
+std::vector<std::uint8_t> Skeleton::translated_mask() const {
+  std::vector<std::uint8_t> mask(static_cast<std::size_t>(joint_count()));
+  for (int j = 0; j < joint_count(); ++j) mask[std::size_t(j)] = has_translation(j) ? 1 : 0;
+  return mask;
+}
+
 bool Skeleton::has_translation(int joint) const {
   const auto& list = channels[joint];
   return std::any_of(list.begin(), list.end(), [](Channel c) { return !is_rotation(c); });

@@ -2,6 +2,7 @@
 // A BVH hierarchy: joints in file order (parents before children), their offsets, channel lists
 // and End Sites. The skeleton description that travels with a clip through the engine.
 #include <array>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -33,7 +34,10 @@ struct Skeleton {
   int joint_count() const { return int(joint_names.size()); }
   int channel_count() const;
   bool has_translation(int joint) const;  // the joint carries position channels
-  bool has_rotation(int joint) const;     // the joint carries rotation channels
+  // One entry per joint: 1 where it carries position channels (the mask MotionIO and the
+  // translation estimates take).
+  std::vector<std::uint8_t> translated_mask() const;
+  bool has_rotation(int joint) const;  // the joint carries rotation channels
   // Rotation order of the joint's rotation channels (meaningful when has_rotation()).
   RotationOrder rotation_order(int joint) const;
   // Space-separated channel list of a joint, e.g. "Zrotation Xrotation Yrotation".

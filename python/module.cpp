@@ -988,8 +988,7 @@ PYBIND11_MODULE(mocap_clean, m) {
       [](const Clip& clip, bool end_sites) {
         const Skeleton& s = *clip.skeleton;
         const int F = clip.frames, J = clip.joints();
-        std::vector<std::uint8_t> translated(std::size_t(J), 0);
-        for (int j = 0; j < J; ++j) translated[std::size_t(j)] = s.has_translation(j);
+        const std::vector<std::uint8_t> translated = s.translated_mask();
         std::vector<JointSite> sites;
         if (end_sites)
           for (int j = 0; j < J; ++j)

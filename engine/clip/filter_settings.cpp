@@ -273,11 +273,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
   std::optional<TranslationNoise> translation_estimate;
   auto translation_noise = [&] {
     if (!translation_estimate) {
-      std::vector<std::uint8_t> translated;
-      for (int j = 0; j < clip.joints(); ++j)
-        translated.push_back(clip.skeleton->has_translation(j) ? 1 : 0);
-      translation_estimate =
-          estimate_translation_noise(clip.translation_view(), translated, clip.frame_time);
+      translation_estimate = estimate_translation_noise(
+          clip.translation_view(), clip.skeleton->translated_mask(), clip.frame_time);
     }
     return *translation_estimate;
   };

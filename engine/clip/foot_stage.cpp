@@ -8,21 +8,12 @@
 #include "kernels/forward_kinematics.hpp"
 
 namespace mocap::engine {
-namespace {
-
-std::vector<std::uint8_t> translated_joints(const Skeleton& skeleton) {
-  std::vector<std::uint8_t> out(std::size_t(skeleton.joint_count()));
-  for (int j = 0; j < skeleton.joint_count(); ++j)
-    out[std::size_t(j)] = skeleton.has_translation(j);
-  return out;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 std::vector<float> joint_positions(const Clip& clip) {
   const Skeleton& sk = *clip.skeleton;
   std::vector<float> positions(std::size_t(clip.frames) * std::size_t(sk.joint_count()) * 3);
-  const std::vector<std::uint8_t> translated = translated_joints(sk);
+  const std::vector<std::uint8_t> translated = sk.translated_mask();
   ForwardKinematicsJob fk;
   fk.parents = sk.parents;
   fk.offsets = sk.offsets;
@@ -64,7 +55,7 @@ Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params,
                  std::span<const std::uint8_t> counted_steps) {
   if (feet.legs.empty()) return {};
   const Skeleton& sk = *filtered.skeleton;
-  const std::vector<std::uint8_t> translated = translated_joints(sk);
+  const std::vector<std::uint8_t> translated = sk.translated_mask();
   FootLockJob job;
   job.params = params;
   job.parents = sk.parents;

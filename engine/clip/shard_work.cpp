@@ -50,8 +50,7 @@ Status run_shard(const ResolvedSettings& resolved, const Clip& input, Clip& outp
     copy_samples(input, output, shard.joint_begin, shard.joint_end, shard);
     return {};
   }
-  std::vector<std::uint8_t> translated(J, 0);
-  for (int j = 0; j < J; ++j) translated[j] = input.skeleton->has_translation(j) ? 1 : 0;
+  std::vector<std::uint8_t> translated = input.skeleton->translated_mask();
   if (!s.filter_translations) std::fill(translated.begin(), translated.end(), 0);
 
   // Each segment between impossible steps is filtered as a clip of its own: views into its rows

@@ -119,8 +119,7 @@ ClipGeometry describe_clip(const Clip& clean, double unit_cm,
   ClipGeometry g;
   g.parents = skeleton.parents;
   g.offsets = skeleton.offsets;
-  for (int j = 0; j < skeleton.joint_count(); ++j)
-    g.translated.push_back(skeleton.has_translation(j) ? 1 : 0);
+  g.translated = skeleton.translated_mask();
   for (const JointQuality& q : classify_joints(clean.rotation_view()))
     g.garbage.push_back(is_garbage(q.joint_class) ? 1 : 0);
   g.effectors = effectors_by_name(skeleton);

@@ -85,11 +85,9 @@ std::vector<float> make_noisy_translations(const Clip& clean, const NoiseConditi
                                            double body_height, std::uint64_t seed) {
   std::vector<float> translations = clean.translations;
   if (condition.position_sigma > 0) {
-    std::vector<std::uint8_t> translated;
-    for (int j = 0; j < clean.joints(); ++j)
-      translated.push_back(clean.skeleton->has_translation(j) ? 1 : 0);
     add_noise(PositionNoise{condition.position_sigma * body_height, seed ^ 0x5bd1e995u},
-              {translations.data(), clean.frames, clean.joints()}, translated);
+              {translations.data(), clean.frames, clean.joints()},
+              clean.skeleton->translated_mask());
   }
   return translations;
 }
@@ -131,9 +129,7 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
       any_garbage ? distance_joints_without(noisy.garbage) : std::vector<std::uint8_t>{};
   out.resize(input.size());
   out_translations.resize(noisy.translations.size());
-  std::vector<std::uint8_t> translated;
-  for (int j = 0; j < joints; ++j)
-    translated.push_back(clip.clean.skeleton->has_translation(j) ? 1 : 0);
+  const std::vector<std::uint8_t> translated = clip.clean.skeleton->translated_mask();
   if (resolved) *resolved = nlohmann::json::array();
   for (std::size_t s = 0; s < clip.segments.size(); ++s) {
     const Segment& seg = clip.segments[s];
