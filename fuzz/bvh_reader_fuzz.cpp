@@ -28,7 +28,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (read.error->line < 0) finding("error line", read.error->what());
     return 0;
   }
-  const Clip& clip = *read.clip;
+  const mocap::Clip& clip = *read.clip;
   if (std::string why = validate_clip(clip); !why.empty()) finding("accepted an invalid clip", why);
   if (std::string why = check_clip_for_bvh(clip); !why.empty())
     finding("export refuses what import accepted", why);
