@@ -1,7 +1,7 @@
 #include "app/eval_command.hpp"
+#include "app/run_in_process.hpp"
 
 #include <fmt/core.h>
-#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cctype>
@@ -214,11 +214,8 @@ int run_eval(const EvalCommand& command) {
   config.repaired = std::any_of(config.grids.begin(), config.grids.end(),
                                 [](const MethodGrid& g) { return g.repaired; });
 
-  std::optional<tbb::global_control> limit;
-  if (command.run.threads > 0)
-    limit.emplace(tbb::global_control::max_allowed_parallelism, command.run.threads);
-  const int threads =
-      int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  const ThreadLimit limit(command.run.threads);
+  const int threads = ThreadLimit::active();
 
   // Sources: library files, then BVH files and folders.
   std::vector<std::string> bvh_arguments;

@@ -1,17 +1,19 @@
 #include "app/run_in_process.hpp"
 
-#include <tbb/global_control.h>
-
-#include <optional>
-
 #include "app/interrupt.hpp"
 
 namespace mocap::engine {
 
+ThreadLimit::ThreadLimit(int threads) {
+  if (threads > 0) limit_.emplace(tbb::global_control::max_allowed_parallelism, threads);
+}
+
+int ThreadLimit::active() {
+  return int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+}
+
 RunSummary run_in_process(Job job) {
-  std::optional<tbb::global_control> limit;
-  if (job.run.threads > 0)
-    limit.emplace(tbb::global_control::max_allowed_parallelism, job.run.threads);
+  const ThreadLimit limit(job.run.threads);
   job.run.cancel = &install_interrupt_handler();
   return run_job(job);
 }

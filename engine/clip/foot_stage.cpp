@@ -8,7 +8,6 @@
 #include "kernels/forward_kinematics.hpp"
 
 namespace mocap::engine {
-namespace {}  // namespace
 
 std::vector<float> joint_positions(const Clip& clip) {
   const Skeleton& sk = *clip.skeleton;

@@ -22,7 +22,6 @@
 #include "engine/eval/svg_plot.hpp"
 #include "engine/run/job.hpp"
 #include "io/bvh_reader.hpp"
-#include "kernels/forward_kinematics.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/position_metrics.hpp"
 #include "tests/test_support.hpp"
@@ -117,19 +116,10 @@ Clip noisy(const Clip& clip, double rotation_sigma, double position_sigma, std::
   return out;
 }
 
+// The engine's own forward kinematics (empty when it fails, which the test then reports).
 std::vector<float> positions(const Clip& clip) {
-  const Skeleton& sk = *clip.skeleton;
-  std::vector<std::uint8_t> translated(std::size_t(sk.joint_count()));
-  for (int j = 0; j < sk.joint_count(); ++j) translated[std::size_t(j)] = sk.has_translation(j);
-  std::vector<float> out(std::size_t(clip.frames) * std::size_t(sk.joint_count()) * 3);
-  ForwardKinematicsJob fk;
-  fk.parents = sk.parents;
-  fk.offsets = sk.offsets;
-  fk.rotations = clip.rotation_view();
-  fk.translations = clip.translation_view();
-  fk.translated_joints = translated;
-  fk.positions = {out.data(), clip.frames, sk.joint_count()};
-  EXPECT_TRUE(fk.run().ok());
+  std::vector<float> out = engine::joint_positions(clip);
+  EXPECT_FALSE(out.empty()) << "forward kinematics failed";
   return out;
 }
 
