@@ -138,6 +138,14 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "filter's result. Default: lock with --method auto; off with a named method")
       ->check(CLI::IsMember({"lock", "off"}))
       ->group("Cleaning");
+  cmd.add_option("--guard", guard,
+                 "last: a clip whose joint positions come out with more jitter or more foot "
+                 "skating than they went in with (the clip as read, over its own contacts) "
+                 "falls back to the filter without the lock, then to the input (pops repaired) "
+                 "locked, then to the input, so cleaning never makes a capture worse on what it "
+                 "can measure. Default: on with --method auto; off with a named method")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->group("Cleaning");
   auto* split_on = cmd.add_flag(
       "--split-impossible", split_impossible_on,
       "filter separately the segments between physically impossible steps (a joint turning "
@@ -199,6 +207,7 @@ FilterSettings FilterOptions::settings() const {
   s.nlpm.translation_sigma_t =
       translation_sigma_t == "auto" ? kAutomaticTranslationSigma : std::stod(translation_sigma_t);
   s.lock_feet = feet.empty() ? s.method == Method::automatic : feet == "lock";
+  s.guard_motion = guard.empty() ? s.method == Method::automatic : guard == "on";
   s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;

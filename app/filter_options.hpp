@@ -15,7 +15,8 @@ struct FilterOptions {
   // Empty: the method's default (auto for --method auto, else off).
   std::string kernel = "gaussian", boundary = "mirror", space = "tangent", translations = "filter";
   std::string pops, garbage_joints = "keep", nlpm_range = "off", translation_sigma_t = "auto";
-  std::string feet;  // empty: lock for --method auto, else off
+  std::string feet;   // empty: lock for --method auto, else off
+  std::string guard;  // empty: on for --method auto, else off
   double sigma_t = 1.0, sigma_g = 0.2, h = 0, cutoff = 6.0, sigma_p = 0, kalman_lambda = 0;
   int window = 0, iterations = 5, search_radius = 10, patch_radius = 5, order = 2, passes = 5;
   int shard_joints = 8, shard_frames = 256;

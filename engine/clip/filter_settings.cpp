@@ -192,6 +192,7 @@ nlohmann::json FilterSettings::to_json() const {
     j["pops"] = std::string(to_string(pops));
     if (pops != PopsMode::off) j["garbage_joints"] = keep_garbage_joints ? "keep" : "filter";
     if (lock_feet) j["feet"] = "lock";
+    if (guard_motion) j["guard"] = "on";
   }
   switch (method) {
     case Method::none:
