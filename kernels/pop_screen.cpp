@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "kernels/simd/pop_bounds_simd.hpp"
+
 namespace mocap {
 
 PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
@@ -43,7 +45,9 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
 }
 
 void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
-                         std::span<double> bounds) {
+                         std::span<double> bounds, Implementation implementation) {
+  if (implementation == Implementation::fast && screen.usable)
+    return simd::pop_residual_bounds(curve, screen, bounds);
   constexpr double kNone = std::numeric_limits<double>::infinity();
   const int frames = int(curve.size()), window = screen.window;
   const std::size_t n = screen.offsets.size();

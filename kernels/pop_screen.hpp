@@ -38,6 +38,7 @@
 #include <vector>
 
 #include "core/quaternion.hpp"
+#include "kernels/implementation.hpp"
 #include "kernels/pop_repair.hpp"
 
 namespace mocap {
@@ -57,8 +58,10 @@ struct PopScreen {
 };
 
 // bounds[t] >= the residual pop_residuals gives sample t, or +infinity where the screen gives no
-// bound (the first and last window() samples, a neighbour too far away).
+// bound (the first and last window() samples, a neighbour too far away). `fast`:
+// simd::pop_residual_bounds (kernels/simd/pop_bounds_simd.hpp), lanes of consecutive samples.
 void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
-                         std::span<double> bounds);
+                         std::span<double> bounds,
+                         Implementation implementation = Implementation::fast);
 
 }  // namespace mocap

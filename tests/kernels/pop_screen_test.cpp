@@ -58,14 +58,16 @@ void compare_joints(const Motion& m, const PopRepairParams& params, Tally& tally
   const PopScreen screen(params);
   ASSERT_TRUE(screen.usable);
   const std::size_t F = std::size_t(m.frames);
-  std::vector<double> bounds(F), residuals(F), spreads(F), fit_errors(F);
+  std::vector<double> bounds(F), scalar_bounds(F), residuals(F), spreads(F), fit_errors(F);
   std::vector<std::uint8_t> reference(F), fast(F), screened(F), screened_reference(F);
   for (int j = 0; j < m.joints; ++j) {
     const std::vector<Quat> curve = joint_curve(m, j);
     pop_residual_bounds(curve, screen, bounds);
+    pop_residual_bounds(curve, screen, scalar_bounds, Implementation::reference);
     pop_residuals(curve, params, residuals, spreads, fit_errors);
     for (std::size_t t = 0; t < F; ++t) {
       ASSERT_GE(bounds[t], residuals[t]) << what << " joint " << j << " frame " << t;
+      ASSERT_GE(scalar_bounds[t], residuals[t]) << what << " joint " << j << " frame " << t;
       tally.screened += bounds[t] <= params.floor;
     }
     const int n_reference = find_pops(curve, params, reference, Implementation::reference, false);
