@@ -12,7 +12,6 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
   for (int o = -window; o <= window; ++o)
     if (o != 0) offsets.push_back(double(o));
   const std::size_t n = offsets.size();
-  bound_weights.assign(n, 0.0);
   usable = true;
   for (const pop_detail::BlockFit& block : pop_detail::whole_window_blocks(params)) {
     const pop_detail::MomentInverse& m = block.inverse;
@@ -20,11 +19,13 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
     // keeps (pop_screen.hpp, step 1).
     if (block.points < 4 || !m.valid || !(m.m00 <= pop_detail::kMaxLeverage)) continue;
     if (!(m.m00 >= 0)) usable = false;  // its spread would be below 1 (the median bound's premise)
+    std::vector<double> weights(n, 0.0);
     for (std::size_t i = 0; i < n; ++i) {
       const double o = offsets[i];
       if (o >= block.x && o <= block.y) continue;  // left out
-      bound_weights[i] = std::max(bound_weights[i], std::abs(m.m00 + m.m01 * o + m.m02 * o * o));
+      weights[i] = std::abs(m.m00 + m.m01 * o + m.m02 * o * o);
     }
+    block_weights.push_back(std::move(weights));
   }
   // The least-squares quadratic of all 2 window() points: (X^T X)^-1 X^T by cofactors.
   double s[5] = {};
@@ -74,13 +75,18 @@ void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
     Vec3 coefficient[3];
     for (int k = 0; k < 3; ++k)
       for (std::size_t i = 0; i < n; ++i) coefficient[k] += screen.fit[k][i] * points[i];
-    double bound = norm(coefficient[0]);
     for (std::size_t i = 0; i < n; ++i) {
       const double o = screen.offsets[i];
       const Vec3 p = coefficient[0] + o * coefficient[1] + (o * o) * coefficient[2];
-      bound += screen.bound_weights[i] * (norm(points[i] - p) + deltas[i]);
+      deltas[i] += norm(points[i] - p);  // now a bound on |v_i - p(o_i)|
     }
-    bounds[std::size_t(t)] = bound + kPopScreenMargin;
+    double worst = 0;
+    for (const std::vector<double>& weights : screen.block_weights) {
+      double sum = 0;
+      for (std::size_t i = 0; i < n; ++i) sum += weights[i] * deltas[i];
+      worst = std::max(worst, sum);
+    }
+    bounds[std::size_t(t)] = norm(coefficient[0]) + worst + kPopScreenMargin;
   }
 }
 

@@ -13,9 +13,9 @@
 //      0 for a left-out point), and for any quadratic p, sum_i w_ki p(o_i) = p(0). So
 //        |a_k| = |p(0) + sum_i w_ki (v_i - p(o_i))| <= |p(0)| + sum_i |w_ki| |v_i - p(o_i)|.
 //      Every whole sample's chosen fit is of tier 0 (leverage <= kMaxLeverage: the fit of the
-//      whole window, leverage 0.26, always has a finite score), so the bound takes
-//      W_i = max over the tier-0 candidates of |w_ki| and gives
-//        residual <= |p(0)| + sum_i W_i |v_i - p(o_i)|.
+//      whole window, leverage 0.26, always has a finite score), so
+//        residual <= |p(0)| + max over the tier-0 candidates k of sum_i |w_ki| |v_i - p(o_i)|
+//      (for the defaults, 35 candidates whose sum_i |w_ki| is at most 1.97).
 //   2. Log without its arc tangent: for the unit quaternion u = q_t^-1 q_{t+o} with w >= 0 and
 //      vector part x, s = |x|, Log(u) = 2 atan2(s, w) x / s, and with n = |u|, sigma = s / n,
 //        |Log(u) - 2x| = 2 |asin(sigma) - s| <= 2 (asin(sigma) - sigma) + 2 s |1/n - 1|,
@@ -50,8 +50,8 @@ inline constexpr double kPopScreenMaxSine = 0.9;  // sigma of a neighbour beyond
 struct PopScreen {
   int window = 0;
   std::vector<double> offsets;  // the 2 window() neighbours' offsets o_i, -window..window but 0
-  std::vector<double> bound_weights;  // W_i
-  std::vector<double> fit[3];         // p's coefficient k = sum_i fit[k][i] c_i (least squares)
+  std::vector<std::vector<double>> block_weights;  // |w_ki| of each tier-0 candidate k
+  std::vector<double> fit[3];  // p's coefficient k = sum_i fit[k][i] c_i (least squares)
   bool usable = false;  // false: a tier-0 candidate with a negative leverage (never on doubles)
 
   explicit PopScreen(const PopRepairParams& params);

@@ -92,9 +92,9 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
       coefficient[k][1] = sy;
       coefficient[k][2] = sz;
     }
-    V bound = hn::Sqrt(hn::Add(hn::Add(hn::Mul(coefficient[0][0], coefficient[0][0]),
-                                       hn::Mul(coefficient[0][1], coefficient[0][1])),
-                               hn::Mul(coefficient[0][2], coefficient[0][2])));
+    const V intercept = hn::Sqrt(hn::Add(hn::Add(hn::Mul(coefficient[0][0], coefficient[0][0]),
+                                                 hn::Mul(coefficient[0][1], coefficient[0][1])),
+                                         hn::Mul(coefficient[0][2], coefficient[0][2])));
     for (std::size_t i = 0; i < n; ++i) {
       const double o = screen.offsets[i];
       const V o1 = hn::Set(d, o), o2 = hn::Set(d, o * o);
@@ -107,9 +107,17 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
       }
       const V error =
           hn::Sqrt(hn::Add(hn::Add(hn::Mul(e[0], e[0]), hn::Mul(e[1], e[1])), hn::Mul(e[2], e[2])));
-      bound = hn::Add(bound, hn::Mul(hn::Set(d, screen.bound_weights[i]),
-                                     hn::Add(error, hn::LoadU(d, row(3, i)))));
+      // Row 3 becomes the bound on |v_i - p(o_i)|.
+      hn::StoreU(hn::Add(error, hn::LoadU(d, row(3, i))), d, row(3, i));
     }
+    V worst = zero;
+    for (const std::vector<double>& weights : screen.block_weights) {
+      V sum = zero;
+      for (std::size_t i = 0; i < n; ++i)
+        sum = hn::Add(sum, hn::Mul(hn::Set(d, weights[i]), hn::LoadU(d, row(3, i))));
+      worst = hn::Max(worst, sum);
+    }
+    const V bound = hn::Add(intercept, worst);
     hn::StoreU(hn::IfThenElse(bounded, hn::Add(bound, margin), none), d, bounds.data() + t);
   }
   // The samples left: the scalar bound, on the tail of the curve alone (the screen's window
