@@ -73,7 +73,12 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   ClipConditioning c;
   const int J = rotations.joints;
   const RotationView view{rotations.data, rotations.frames, J};
-  c.joints = classify_joints(view);
+  // Joint by joint in parallel tasks, like the pop stage below (each writes its own entry).
+  c.joints.resize(std::size_t(J));
+  tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
+    for (int j = range.begin(); j < range.end(); ++j)
+      c.joints[std::size_t(j)] = classify_joint(view, j);
+  });
   c.garbage.resize(std::size_t(J));
   for (int j = 0; j < J; ++j)
     c.garbage[std::size_t(j)] = is_garbage(c.joints[std::size_t(j)].joint_class);
