@@ -16,7 +16,8 @@
 //      whole window, leverage 0.26, always has a finite score), so
 //        residual <= |p(0)| + max over the tier-0 candidates k of sum_i |w_ki| |v_i - p(o_i)|
 //      (for the defaults, 35 candidates whose sum_i |w_ki| is at most 1.97).
-//   2. Log without its arc tangent: for the unit quaternion u = q_t^-1 q_{t+o} with w >= 0 and
+//   2. Log without its arc tangent: for the quaternion u = q_t^-1 q_{t+o} (unit up to the float
+//      rounding of the samples) with w >= 0 and
 //      vector part x, s = |x|, Log(u) = 2 atan2(s, w) x / s, and with n = |u|, sigma = s / n,
 //        |Log(u) - 2x| = 2 |asin(sigma) - s| <= 2 (asin(sigma) - sigma) + 2 s |1/n - 1|,
 //      asin(sigma) - sigma = sum_{m>=1} c_m sigma^(2m+1) with c_m <= 1/6, so
@@ -33,7 +34,9 @@
 // needs every sample's residual. A screened sample's standardized residual lies in [0, bound];
 // the median is monotone in each value, so the median with 0 and with the bound in place of the
 // screened ones enclose the true scale; a flag decided the same way at both ends is the
-// reference's decision, and any other sends the joint to the full computation (find_pops).
+// reference's decision. When one is not, the screened samples whose bounds exceed half the
+// scale at which that sample would stop being a pop get their fits (the upper median falls),
+// and if that does not decide it either, every sample of the joint does (find_pops).
 #include <span>
 #include <vector>
 
