@@ -103,6 +103,7 @@ void BM_PopRepair(benchmark::State& state) {
   PopRepairJob job;
   job.io = f.io;
   job.implementation = implementation_of(state);
+  job.screen = state.range(3) != 0;  // kernels/pop_screen.hpp: the same flags
   for (auto _ : state) {
     job.run();
     benchmark::DoNotOptimize(f.out.data());
@@ -110,9 +111,10 @@ void BM_PopRepair(benchmark::State& state) {
   f.count(state);
 }
 BENCHMARK(BM_PopRepair)
-    ->ArgNames({"fast", "J", "F"})
-    ->Args({0, 31, 1000})
-    ->Args({1, 31, 1000})
+    ->ArgNames({"fast", "J", "F", "screen"})
+    ->Args({0, 31, 1000, 0})
+    ->Args({1, 31, 1000, 0})
+    ->Args({1, 31, 1000, 1})
     ->Unit(benchmark::kMillisecond);
 
 // Foot locking (README "Feet") on the bof fixture's motion, 31 joints x 1000 frames: a chain

@@ -280,17 +280,15 @@ BvhReadResult parse_bvh(std::string_view text, const std::string& name, bool kee
   return result;
 }
 
-BvhReadResult read_bvh(const std::filesystem::path& path, bool keep_source_angles) {
+std::optional<BvhError> read_bvh_text(const std::filesystem::path& path, std::string& text) {
   const std::string name = path.string();
   auto io_error = [&](const char* what) {
-    BvhReadResult result;
-    result.error = BvhError{name, 0, std::string(what) + ": " + std::strerror(errno)};
-    return result;
+    return BvhError{name, 0, std::string(what) + ": " + std::strerror(errno)};
   };
+  text.clear();
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(name.c_str(), "rb"),
                                                        &std::fclose);
   if (!file) return io_error("cannot open the file");
-  std::string text;
   std::error_code size_error;
   const auto size = std::filesystem::file_size(path, size_error);
   if (!size_error) text.reserve(std::size_t(size));
@@ -301,7 +299,17 @@ BvhReadResult read_bvh(const std::filesystem::path& path, bool keep_source_angle
     if (n < sizeof buffer) break;
   }
   if (std::ferror(file.get())) return io_error("cannot read the file");
-  return parse_bvh(text, name, keep_source_angles);
+  return std::nullopt;
+}
+
+BvhReadResult read_bvh(const std::filesystem::path& path, bool keep_source_angles) {
+  std::string text;
+  if (std::optional<BvhError> error = read_bvh_text(path, text)) {
+    BvhReadResult result;
+    result.error = std::move(error);
+    return result;
+  }
+  return parse_bvh(text, path.string(), keep_source_angles);
 }
 
 }  // namespace mocap::io

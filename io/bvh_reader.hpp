@@ -48,4 +48,8 @@ BvhReadResult parse_bvh(std::string_view text, const std::string& name,
 // Reads the file, then parse_bvh with the path as name. I/O errors are BvhErrors with line 0.
 BvhReadResult read_bvh(const std::filesystem::path& path, bool keep_source_angles = false);
 
+// read_bvh's first half, the file access alone (the engine reads files in its serial stage and
+// parses them in parallel): the file's bytes in `text`, or an error with line 0.
+std::optional<BvhError> read_bvh_text(const std::filesystem::path& path, std::string& text);
+
 }  // namespace mocap::io

@@ -4,12 +4,14 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "core/format.hpp"
 #include "core/quaternion.hpp"
 #include "kernels/median.hpp"
+#include "kernels/pop_screen.hpp"
 #include "kernels/simd/pop_residuals_simd.hpp"
 
 namespace mocap {
@@ -202,24 +204,129 @@ double pop_scale(std::span<const double> residuals, std::span<const double> spre
   return median(standardized);
 }
 
-int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
-              std::span<std::uint8_t> flags, Implementation implementation) {
+namespace {
+
+// find_pops' test of one sample against the joint's scale.
+bool is_pop(double residual, double spread, double fit_error, double scale,
+            const PopRepairParams& params) {
+  return residual > std::max(params.threshold * scale * spread, params.floor) &&
+         residual > params.local_threshold * fit_error;
+}
+
+}  // namespace
+
+namespace {
+
+// find_pops with the screen's weights made once per job (null: no screen).
+int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
+                   std::span<std::uint8_t> flags, Implementation implementation,
+                   const PopScreen* screen) {
   std::fill(flags.begin(), flags.end(), std::uint8_t{0});
   if (curve.size() < std::size_t(kPopRepairMinFrames)) return 0;
-  std::vector<double> residuals(curve.size()), spreads(curve.size()), fit_errors(curve.size());
-  if (implementation == Implementation::fast)
-    simd::pop_residuals(curve, params, residuals, spreads, fit_errors);
-  else
-    pop_residuals(curve, params, residuals, spreads, fit_errors);
-  const double scale = pop_scale(residuals, spreads);
+  const std::size_t n = curve.size();
+  std::vector<double> residuals(n), spreads(n), fit_errors(n);
+  // The residuals of the samples where `only` is nonzero (all when empty).
+  const auto compute = [&](std::span<const std::uint8_t> only) {
+    if (implementation == Implementation::fast) {
+      simd::pop_residuals(curve, params, residuals, spreads, fit_errors, only);
+    } else if (only.empty()) {
+      pop_residuals(curve, params, residuals, spreads, fit_errors);
+    } else {
+      const std::vector<BlockFit> whole_window = pop_detail::whole_window_blocks(params);
+      pop_detail::ChartScratch scratch(n);
+      for (std::size_t t = 0; t < n; ++t)
+        if (only[t])
+          pop_detail::sample_residual(curve, params, whole_window, int(t), scratch, residuals,
+                                      spreads, fit_errors);
+    }
+  };
   int count = 0;
-  for (std::size_t t = 0; t < curve.size(); ++t)
-    if (residuals[t] > std::max(params.threshold * scale * spreads[t], params.floor) &&
-        residuals[t] > params.local_threshold * fit_errors[t]) {
+  if (screen) {
+    // kernels/pop_screen.hpp: only samples whose bound exceeds the floor can be pops.
+    std::vector<double> bounds(n);
+    pop_residual_bounds(curve, *screen, bounds);
+    std::vector<std::uint8_t> exact(n);
+    std::vector<std::size_t> maybe;  // computed samples that are pops at some scale >= 0
+    for (std::size_t t = 0; t < n; ++t) exact[t] = !(bounds[t] <= params.floor);
+    compute(exact);
+    // is_pop only turns false as the scale grows; at scale 0 it is the floor and local tests.
+    for (std::size_t t = 0; t < n; ++t)
+      if (exact[t] && is_pop(residuals[t], spreads[t], fit_errors[t], 0.0, params))
+        maybe.push_back(t);
+    if (maybe.empty()) return 0;  // no sample is a pop whatever the scale
+    // The scale lies between the medians with 0 and with the bound in place of the residuals
+    // of the screened samples (the median is monotone in each value); a sample that is a pop
+    // at the upper end is one at the true scale, one that is not at the lower end is not.
+    const auto scale_with = [&](bool upper) {
+      std::vector<double> values(n);
+      for (std::size_t t = 0; t < n; ++t)
+        values[t] = exact[t] ? residuals[t] / spreads[t] : upper ? bounds[t] : 0.0;
+      return median(values);
+    };
+    const auto decide = [&]() {
+      const double high = scale_with(true);
+      std::vector<std::size_t> open;
+      for (std::size_t t : maybe)
+        if (!is_pop(residuals[t], spreads[t], fit_errors[t], high, params)) open.push_back(t);
+      if (open.empty()) return true;
+      const double low = scale_with(false);
+      for (std::size_t t : open)
+        if (is_pop(residuals[t], spreads[t], fit_errors[t], low, params)) return false;
+      maybe.erase(std::remove_if(maybe.begin(), maybe.end(),
+                                 [&](std::size_t t) {
+                                   return std::find(open.begin(), open.end(), t) != open.end();
+                                 }),
+                  maybe.end());
+      return true;
+    };
+    bool decided = decide();
+    if (!decided) {
+      // The bounds above a sample's own limit (the scale at which it stops being a pop, halved)
+      // keep the upper median too high: those samples get their residuals, then decide again.
+      double limit = std::numeric_limits<double>::infinity();
+      for (std::size_t t : maybe)
+        limit = std::min(limit, 0.5 * residuals[t] / (params.threshold * spreads[t]));
+      std::vector<std::uint8_t> more(n);
+      bool any = false;
+      for (std::size_t t = 0; t < n; ++t) {
+        more[t] = !exact[t] && bounds[t] > limit;
+        any = any || more[t];
+        exact[t] = exact[t] || more[t];
+      }
+      if (any) {
+        compute(more);
+        decided = decide();
+      }
+    }
+    if (decided) {
+      for (std::size_t t : maybe) {
+        flags[t] = 1;
+        ++count;
+      }
+      return count;
+    }
+    // The scale decides some sample: the residuals of all (those computed keep their bits).
+    for (std::size_t t = 0; t < n; ++t) exact[t] = !exact[t];
+    compute(exact);
+  } else {
+    compute({});
+  }
+  const double scale = pop_scale(residuals, spreads);
+  for (std::size_t t = 0; t < n; ++t)
+    if (is_pop(residuals[t], spreads[t], fit_errors[t], scale, params)) {
       flags[t] = 1;
       ++count;
     }
   return count;
+}
+
+}  // namespace
+
+int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
+              std::span<std::uint8_t> flags, Implementation implementation, bool screen) {
+  if (!screen) return find_pops_with(curve, params, flags, implementation, nullptr);
+  const PopScreen weights(params);
+  return find_pops_with(curve, params, flags, implementation, &weights);
 }
 
 void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flags,
@@ -280,12 +387,14 @@ Status PopRepairJob::run() const {
   std::vector<Quat> curve(static_cast<std::size_t>(frames)),
       repaired(static_cast<std::size_t>(frames));
   std::vector<std::uint8_t> flags(static_cast<std::size_t>(frames));
+  const std::optional<PopScreen> weights =
+      screen ? std::optional<PopScreen>(params) : std::optional<PopScreen>();
   for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
     const bool skip = !skip_joints.empty() && skip_joints[std::size_t(j)] != 0;
     std::fill(flags.begin(), flags.end(), std::uint8_t{0});
     if (!skip) {
       for (int t = 0; t < frames; ++t) curve[std::size_t(t)] = load_quat(io.rotations.at(t, j));
-      find_pops(curve, params, flags, implementation);
+      find_pops_with(curve, params, flags, implementation, weights ? &*weights : nullptr);
     }
     const bool changes = repair && std::find(flags.begin() + begin, flags.begin() + end,
                                              std::uint8_t{1}) != flags.begin() + end;

@@ -77,9 +77,12 @@ double pop_scale(std::span<const double> residuals, std::span<const double> spre
 // flags[t] = 1 where residuals[t] > max(threshold * scale * spreads[t], floor) and
 // residuals[t] > local_threshold * fit_errors[t]; all 0 below
 // kPopRepairMinFrames frames. Returns the number of flagged samples. `implementation` picks the
-// residuals' path (both give the same bits on this build, see pop_residuals_simd.hpp).
+// residuals' path (both give the same bits on this build, see pop_residuals_simd.hpp). With
+// `screen`, only the samples kernels/pop_screen.hpp cannot rule out get the full fits (the same
+// flags: tests/kernels/pop_screen_test.cpp compares every bit with the unscreened test).
 int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
-              std::span<std::uint8_t> flags, Implementation implementation = Implementation::fast);
+              std::span<std::uint8_t> flags, Implementation implementation = Implementation::fast,
+              bool screen = true);
 // out = curve with each run of flagged samples replaced by slerp between its unflagged
 // neighbours (held at a clip end; left as it is when no sample is unflagged).
 void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flags,
@@ -101,6 +104,7 @@ struct PopRepairJob {
   // false: detect only; the output is a bit-exact copy of the input, the counts are the same.
   bool repair = true;
   Implementation implementation = Implementation::fast;  // of the residuals, see find_pops
+  bool screen = true;                                    // find_pops' screen (the same flags)
 
   Status validate() const;
   Status run() const;

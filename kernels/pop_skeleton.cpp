@@ -53,14 +53,30 @@ Status PopSkeletonJob::run() const {
       needed[std::size_t(j)] = 1;
       for (int k : neighbours[std::size_t(j)]) needed[std::size_t(k)] = 1;
     }
+  // Of those, only the samples the test reads (a flag's own and its neighbours' within reach):
+  // sample_residual is pop_residuals one sample at a time, so each has the same bits.
+  std::vector<std::uint8_t> wanted(std::size_t(F) * std::size_t(J), 0);
+  for (int t = 0; t < F; ++t)
+    for (int j = 0; j < J; ++j) {
+      if (!flagged(t, j) || !needed[std::size_t(j)]) continue;
+      wanted[std::size_t(t) * std::size_t(J) + std::size_t(j)] = 1;
+      for (int k : neighbours[std::size_t(j)])
+        for (int u = std::max(0, t - reach); u <= std::min(F - 1, t + reach); ++u)
+          wanted[std::size_t(u) * std::size_t(J) + std::size_t(k)] = 1;
+    }
   std::vector<std::vector<double>> residual(static_cast<std::size_t>(J));
   std::vector<Quat> curve(static_cast<std::size_t>(F));
   std::vector<double> spreads(static_cast<std::size_t>(F)), fit_errors(static_cast<std::size_t>(F));
+  const std::vector<pop_detail::BlockFit> whole_window = pop_detail::whole_window_blocks(params);
+  pop_detail::ChartScratch scratch(static_cast<std::size_t>(F));
   for (int j = 0; j < J; ++j) {
     if (!needed[std::size_t(j)] || F < kPopRepairMinFrames) continue;
     for (int t = 0; t < F; ++t) curve[std::size_t(t)] = load_quat(rotations.at(t, j));
     residual[std::size_t(j)].resize(std::size_t(F));
-    pop_residuals(curve, params, residual[std::size_t(j)], spreads, fit_errors);
+    for (int t = 0; t < F; ++t)
+      if (wanted[std::size_t(t) * std::size_t(J) + std::size_t(j)])
+        pop_detail::sample_residual(curve, params, whole_window, t, scratch,
+                                    residual[std::size_t(j)], spreads, fit_errors);
   }
   // Decide on the input flags (a neighbour's flag counts as it came), then clear.
   std::vector<std::size_t> clear;

@@ -1,8 +1,11 @@
 #include "engine/clip/clip_conditioning.hpp"
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <mutex>
 #include <numeric>
 #include <stdexcept>
 
@@ -45,6 +48,24 @@ void repair_flagged(RotationView in, std::span<const std::uint8_t> flags, std::s
   }
 }
 
+// The job's joints as parallel tasks (a clip's few long joints would otherwise keep one thread
+// busy while the others wait for the next clip); each task writes its joints' own outputs, so
+// the results are the same for any thread count.
+void run_joints_in_parallel(const PopRepairJob& job) {
+  std::mutex mutex;
+  std::string error;
+  tbb::parallel_for(tbb::blocked_range<int>(0, job.io.rotations.joints, 1), [&](const auto& range) {
+    PopRepairJob slice = job;
+    slice.io.joint_begin = range.begin();
+    slice.io.joint_end = range.end();
+    if (const Status s = slice.run(); !s.ok()) {
+      const std::lock_guard lock(mutex);
+      if (error.empty()) error = s.message();
+    }
+  });
+  if (!error.empty()) throw std::runtime_error("pop repair: " + error);
+}
+
 }  // namespace
 
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
@@ -52,7 +73,12 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   ClipConditioning c;
   const int J = rotations.joints;
   const RotationView view{rotations.data, rotations.frames, J};
-  c.joints = classify_joints(view);
+  // Joint by joint in parallel tasks, like the pop stage below (each writes its own entry).
+  c.joints.resize(std::size_t(J));
+  tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
+    for (int j = range.begin(); j < range.end(); ++j)
+      c.joints[std::size_t(j)] = classify_joint(view, j);
+  });
   c.garbage.resize(std::size_t(J));
   for (int j = 0; j < J; ++j)
     c.garbage[std::size_t(j)] = is_garbage(c.joints[std::size_t(j)].joint_class);
@@ -85,7 +111,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     job.flagged_per_joint = found;
     job.flagged_samples = flagged;
     job.repair = c.repaired && !skeleton_test;
-    if (const Status s = job.run(); !s.ok()) throw std::runtime_error("pop repair: " + s.message());
+    run_joints_in_parallel(job);
     if (skeleton_test) {
       PopSkeletonJob skeleton;
       skeleton.rotations = {rotations.data + offset, seg.frames(), J};

@@ -24,6 +24,26 @@ std::optional<Clip> BvhSource::read(std::size_t i, std::string* error) {
   return std::move(result.clip);
 }
 
+bool BvhSource::load(std::size_t i, Loaded& loaded, std::string* error) {
+  if (std::optional<io::BvhError> e = io::read_bvh_text(files_[i].path, loaded.bytes)) {
+    if (error) *error = e->what();
+    return false;
+  }
+  return true;
+}
+
+std::optional<Clip> BvhSource::decode(std::size_t i, Loaded&& loaded, std::string* error) {
+  io::BvhReadResult result =
+      io::parse_bvh(loaded.bytes, files_[i].path.string(), keep_source_angles_);
+  loaded.bytes = {};  // the text is not needed any more: free it before the clip's work
+  if (result.error) {
+    if (error) *error = result.error->what();
+    return std::nullopt;
+  }
+  result.clip->source = files_[i].relative;
+  return std::move(result.clip);
+}
+
 std::unique_ptr<LibrarySource> LibrarySource::open(const std::filesystem::path& path,
                                                    std::string* error) {
   auto reader = io::LibraryReader::open(path, error);

@@ -24,6 +24,20 @@ class ClipSource {
   // Frames x joints when known before reading (for cost-balanced splits), else 0.
   virtual std::size_t cost(std::size_t index) const = 0;
   virtual std::optional<Clip> read(std::size_t index, std::string* error) = 0;
+
+  // read() in two halves for the task graph: load() in its serial reader stage (the file or
+  // HDF5 access), decode() in a parallel task (parsing). By default load() does all of read().
+  struct Loaded {
+    std::optional<Clip> clip;
+    std::string bytes;  // a BVH file's text, for decode()
+  };
+  virtual bool load(std::size_t index, Loaded& loaded, std::string* error) {
+    loaded.clip = read(index, error);
+    return loaded.clip.has_value();
+  }
+  virtual std::optional<Clip> decode(std::size_t, Loaded&& loaded, std::string*) {
+    return std::move(loaded.clip);
+  }
 };
 
 class BvhSource final : public ClipSource {
@@ -38,6 +52,9 @@ class BvhSource final : public ClipSource {
   std::string relative_path(std::size_t i) const override { return files_[i].relative; }
   std::size_t cost(std::size_t i) const override;
   std::optional<Clip> read(std::size_t i, std::string* error) override;
+  // The file's bytes; parse_bvh in decode().
+  bool load(std::size_t i, Loaded& loaded, std::string* error) override;
+  std::optional<Clip> decode(std::size_t i, Loaded&& loaded, std::string* error) override;
 
  private:
   std::vector<SourceFile> files_;

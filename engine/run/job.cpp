@@ -27,6 +27,7 @@ struct ClipState {
   MotionMeasure before, after;  // what a viewer sees, as read and as written
   ClipFeet feet;                // with lock_feet: found on the input, locked on the output
   ReviewCapture review;         // with --report: the motion before and after, for the page
+  ReviewEntry review_entry;     // and the page's entry, built from it in the finish stage
   std::optional<Kept> kept;     // with the guard: what the clip kept
   Clip raw;                     // with the guard: the clip as read, its last resort
 };
@@ -82,11 +83,24 @@ RunSummary run_job(const Job& job) {
     item.name = job.source->name(index);
     std::string error;
     const Timed timed(times, StageTimes::read);
-    std::optional<Clip> clip = job.source->read(index, &error);
-    if (!clip) return item.fail(error);
-    item.input = std::move(*clip);
+    ClipSource::Loaded loaded;
+    if (!job.source->load(index, loaded, &error)) return item.fail(error);
+    item.context = std::move(loaded);
   };
   stages.split = [&](WorkItem& item) -> std::vector<Shard> {
+    {
+      const Timed timed(times, StageTimes::parse);
+      std::string error;
+      std::optional<Clip> clip =
+          job.source->decode(selection[item.index],
+                             std::move(std::any_cast<ClipSource::Loaded&>(item.context)), &error);
+      item.context.reset();
+      if (!clip) {
+        item.fail(error);
+        return {};
+      }
+      item.input = std::move(*clip);
+    }
     {
       const Timed timed(times, StageTimes::check);
       if (std::string why = check_clip_values(item.input); !why.empty()) {
@@ -128,8 +142,10 @@ RunSummary run_job(const Job& job) {
       before = measure_motion(raw, nullptr, resolved.segments);
     }
     if (!guard) raw = {};
-    ClipState state{std::move(resolved), {}, std::move(conditioning), std::move(before), {}, {},
-                    std::move(review),   {}, std::move(raw)};
+    ClipState state{std::move(resolved), {}, std::move(conditioning),
+                    std::move(before),   {}, {},
+                    std::move(review),   {}, {},
+                    std::move(raw)};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
     if (feet.lock) {
@@ -200,10 +216,21 @@ RunSummary run_job(const Job& job) {
       if (const Status s = job.transform(item.output, selection[item.index]); !s.ok())
         return item.fail(s.message());
     }
-    std::string error;
-    const Timed timed(times, StageTimes::prepare);
-    if (!job.sink->prepare(item.output, std::any_cast<ClipState&>(item.context).prepared, &error))
-      item.fail(error);
+    {
+      std::string error;
+      const Timed timed(times, StageTimes::prepare);
+      if (!job.sink->prepare(item.output, std::any_cast<ClipState&>(item.context).prepared, &error))
+        return item.fail(error);
+    }
+    if (job.review) {
+      // The page's entry (JSON, base64) here, in parallel; the write stage numbers and writes it.
+      auto& state = std::any_cast<ClipState&>(item.context);
+      const Timed timed(times, StageTimes::review);
+      state.review_entry =
+          review_entry({item.name, &item.output, &state.resolved, &state.conditioning, &state.feet,
+                        measure ? &state.before : nullptr, measure ? &state.after : nullptr},
+                       std::move(state.review));
+    }
   };
   stages.write = [&](WorkItem& item) {
     const std::size_t index = selection[item.index];
@@ -228,11 +255,8 @@ RunSummary run_job(const Job& job) {
       }
       if (feet.lock) feet.add(item.name, item.output, state.feet);
       if (job.review) {
-        auto& review = std::any_cast<ClipState&>(item.context).review;
         const Timed timed(times, StageTimes::review);
-        job.review->add({item.name, &item.output, &state.resolved, &state.conditioning, &state.feet,
-                         measure ? &state.before : nullptr, measure ? &state.after : nullptr},
-                        std::move(review));
+        job.review->add(std::move(std::any_cast<ClipState&>(item.context).review_entry));
       }
     } else {
       summary.failed.push_back({item.name, item.error});

@@ -258,16 +258,14 @@ Status ReviewReport::prepare() {
   return {};
 }
 
-void ReviewReport::add(const ReviewClipInfo& info, ReviewCapture&& capture) {
+ReviewEntry review_entry(const ReviewClipInfo& info, ReviewCapture&& capture) {
   const Clip& clip = *info.clip;
   const Skeleton& sk = *clip.skeleton;
-  const std::size_t index = rows_.size();
   const double fps = clip.frame_time > 0 ? 1.0 / clip.frame_time : 0;
   const double cm = capture.cm_per_unit;
-  const std::string file = fmt::format("clips/{:05}.js", index);
 
-  nlohmann::json row;
-  row["i"] = index;
+  ReviewEntry entry;
+  nlohmann::json& row = entry.row;
   row["name"] = info.name;
   row["frames"] = clip.frames;
   row["fps"] = fps;
@@ -336,7 +334,6 @@ void ReviewReport::add(const ReviewClipInfo& info, ReviewCapture&& capture) {
                         : nlohmann::json(nullptr);
   row["units"] = capture.units;
   row["has_motion"] = capture.count > 0;
-  row["file"] = file;
 
   if (capture.count > 0) {
     nlohmann::json meta;
@@ -353,13 +350,27 @@ void ReviewReport::add(const ReviewClipInfo& info, ReviewCapture&& capture) {
     meta["pops"] = std::move(pops);
     meta["contacts"] = std::move(contacts);
     meta["garbage"] = std::move(garbage);
-    const std::string text =
-        fmt::format("mocapReviewClip({},{},\"{}\");\n", index, script_safe(meta.dump()),
-                    base64(capture.packed.data(), capture.packed.size()));
+    entry.script = fmt::format("{},\"{}\");\n", script_safe(meta.dump()),
+                               base64(capture.packed.data(), capture.packed.size()));
+  }
+  return entry;
+}
+
+void ReviewReport::add(ReviewEntry&& entry) {
+  const std::size_t index = rows_.size();
+  const std::string file = fmt::format("clips/{:05}.js", index);
+  entry.row["i"] = index;
+  entry.row["file"] = file;
+  if (!entry.script.empty()) {
+    const std::string text = fmt::format("mocapReviewClip({},", index) + entry.script;
     if (Status s = write_text(fs::path(folder_) / file, text); !s.ok() && first_error_.ok())
       first_error_ = s;
   }
-  rows_.push_back(std::move(row));
+  rows_.push_back(std::move(entry.row));
+}
+
+void ReviewReport::add(const ReviewClipInfo& info, ReviewCapture&& capture) {
+  add(review_entry(info, std::move(capture)));
 }
 
 void ReviewReport::add_failure(const std::string& name, const std::string& error) {

@@ -62,6 +62,14 @@ struct ReviewClipInfo {
   const MotionMeasure* after = nullptr;
 };
 
+// What the page keeps of one clip, built in a parallel stage so that the serial write stage only
+// numbers it and writes its file.
+struct ReviewEntry {
+  nlohmann::json row;  // the page's row, but its number "i" and "file"
+  std::string script;  // the clip file's text after "mocapReviewClip(N,"; empty: no motion
+};
+ReviewEntry review_entry(const ReviewClipInfo& info, ReviewCapture&& capture);
+
 class ReviewReport {
  public:
   // `command` names the run in the page ("clean", "filter").
@@ -73,6 +81,8 @@ class ReviewReport {
   Status prepare();
   // Serial (the write stage, in clip order): writes the clip's file, keeps its row. A write
   // error is kept and returned by write().
+  void add(ReviewEntry&& entry);
+  // review_entry and add in one (serial).
   void add(const ReviewClipInfo& info, ReviewCapture&& capture);
   // A clip that failed (named on the page with its error).
   void add_failure(const std::string& name, const std::string& error);

@@ -13,7 +13,8 @@ namespace mocap::engine {
 class StageTimes {
  public:
   enum Stage {
-    read,       // file or HDF5 access and parsing (serial)
+    read,       // file or HDF5 access (serial; HDF5 decoding too)
+    parse,      // BVH parsing (parallel across clips)
     check,      // value checks and sign continuity
     condition,  // joint classification and the pop stage
     resolve,    // noise estimates and automatic parameters

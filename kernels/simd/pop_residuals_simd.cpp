@@ -125,7 +125,7 @@ void FitLanes(D d, const std::vector<pop_detail::BlockFit>& blocks, int window, 
 
 void PopResiduals(std::span<const Quat> curve, const PopRepairParams& params,
                   std::span<double> residuals, std::span<double> spreads,
-                  std::span<double> fit_errors) {
+                  std::span<double> fit_errors, std::span<const std::uint8_t> only) {
   const hn::ScalableTag<double> d;
   const std::size_t lanes = hn::Lanes(d);
   const int frames = int(curve.size()), window = params.window();
@@ -148,6 +148,7 @@ void PopResiduals(std::span<const Quat> curve, const PopRepairParams& params,
     batch.clear();
   };
   for (int t = 0; t < frames; ++t) {
+    if (!only.empty() && !only[std::size_t(t)]) continue;
     // Whole: the window is not shifted at a clip end and every neighbour is within reach (the
     // reference's test, pop_repair.cpp).
     bool whole = t >= window && t + window < frames;
@@ -185,8 +186,8 @@ HWY_EXPORT(PopResiduals);
 
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
-                   std::span<double> fit_errors) {
-  HWY_DYNAMIC_DISPATCH(PopResiduals)(curve, params, residuals, spreads, fit_errors);
+                   std::span<double> fit_errors, std::span<const std::uint8_t> only) {
+  HWY_DYNAMIC_DISPATCH(PopResiduals)(curve, params, residuals, spreads, fit_errors, only);
 }
 
 }  // namespace mocap::simd

@@ -7,6 +7,7 @@
 // from double accuracy). The fits use the reference's operations in its order, without fused
 // multiply-adds (-ffp-contract=off), so where the scalar build does not fuse either (the x86-64
 // baseline) the results are the reference's to the bit (tests/kernels/pop_repair_test.cpp).
+#include <cstdint>
 #include <span>
 
 #include "core/quaternion.hpp"
@@ -14,9 +15,11 @@
 
 namespace mocap::simd {
 
-// The contract of mocap::pop_residuals.
+// The contract of mocap::pop_residuals. With `only` (one entry per sample), just the samples
+// where it is nonzero are computed (each lane's arithmetic is its own, so a sample's bits do not
+// depend on which others share its batch); the others are left as they were.
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
-                   std::span<double> fit_errors);
+                   std::span<double> fit_errors, std::span<const std::uint8_t> only = {});
 
 }  // namespace mocap::simd

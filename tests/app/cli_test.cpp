@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <fstream>
+#include <iterator>
+#include <map>
 #include <sstream>
 
 #include "engine/clip/filter_settings.hpp"
@@ -111,6 +113,38 @@ TEST(Cli, AFailingFileIsNamedAndTheOthersAreWritten) {
   EXPECT_EQ(summary["failed"][0]["clip"], "broken.bvh");
   EXPECT_NE(summary["failed"][0]["error"].get<std::string>().find("values"), std::string::npos);
   EXPECT_EQ(summary["clips"], 2);
+}
+
+// Issue 15: BVH files are read as bytes by the serial reader and parsed in parallel tasks; the
+// output is the same bytes for any thread count, and --json's stages time the parsing apart.
+TEST(Cli, CleanParsesInParallelWithTheSameBytesForAnyThreadCount) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  test::TempDir one("clean-parallel-1"), two("clean-parallel-2");
+  std::map<int, nlohmann::json> stages;
+  for (const auto& [threads, out] : {std::pair{1, &one}, std::pair{2, &two}}) {
+    const auto r =
+        test::run_cli(fmt::format("clean '{}' -o '{}' --threads {} --json --overwrite",
+                                  test::shared_bvh_dir().string(), out->path().string(), threads));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    stages[threads] = nlohmann::json::parse(r.out)["stages"];
+  }
+  std::size_t files = 0;
+  for (const auto& path : test::shared_bvh_files()) {
+    const auto slurp = [](const fs::path& file) {
+      std::ifstream in(file, std::ios::binary);
+      return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    const std::string a = slurp(one / path.filename().string()),
+                      b = slurp(two / path.filename().string());
+    EXPECT_FALSE(a.empty()) << path;
+    EXPECT_EQ(a, b) << path;
+    ++files;
+  }
+  EXPECT_EQ(files, 9u);
+  for (const auto& [threads, s] : stages) {
+    EXPECT_GT(s["parse"].get<double>(), 0) << threads;
+    EXPECT_GT(s["read"].get<double>(), 0) << threads;
+  }
 }
 
 TEST(Cli, AFileThatFailsAloneExitsWithOneAndNamesItsLineOnce) {
