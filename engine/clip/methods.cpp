@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 
+#include "core/quaternion.hpp"
 #include "kernels/bilateral.hpp"
 #include "kernels/kalman.hpp"
 #include "kernels/linear_filter.hpp"
@@ -31,6 +34,30 @@ bool has(const ParamPoint* point, std::string_view name) {
          std::any_of(point->begin(), point->end(), [&](const auto& p) { return p.first == name; });
 }
 
+// The options some methods share: one text, each method's own `apply`.
+constexpr std::string_view kSigmaTHelp =
+    "bof, gaussian: temporal width in frames (bof: 0 = automatic, from the noise)";
+constexpr std::string_view kWindowHelp =
+    "bof, gaussian: half-width k in frames (0 = ceil(3 sigma_t))";
+MethodOption boundary_option(void (*apply)(FilterSettings&, double, const std::string&)) {
+  return {.flags = "--boundary",
+          .help = "samples beyond the clip's ends: mirror, hold, extrapolate",
+          .type = MethodOption::Type::word,
+          .default_word = "mirror",
+          .choices = {"mirror", "hold", "extrapolate"},
+          .after_methods = true,
+          .json_key = "boundary",
+          .apply = apply};
+}
+
+// The whole of `text` as a finite number, else nullopt (as the command line's number checks).
+std::optional<double> finite_number(const std::string& text) {
+  char* end = nullptr;
+  const double x = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || !std::isfinite(x)) return std::nullopt;
+  return x;
+}
+
 Status nothing_to_check(const FilterSettings&) {
   return {};
 }
@@ -48,39 +75,97 @@ bool bof_needs_noise(const FilterSettings& s) {
   return s.bilateral.sigma_g == 0 || s.bilateral.sigma_t == 0;
 }
 
-const MethodEntry kBof{
-    .method = Method::bof,
-    .name = "bof",
-    .help = "bof: bilateral orientation filter (Courty 2008): smooths jitter, keeps edges",
-    .validate =
-        [](const FilterSettings& s) {
-          BilateralParams p = s.bilateral;
-          if (p.sigma_g == 0) p.sigma_g = 1;  // automatic: resolved per clip
-          if (p.sigma_t == 0) p.sigma_t = 1;
-          return p.validate();
-        },
-    .to_json =
-        [](const FilterSettings& s, json& j) {
-          const BilateralParams& b = s.bilateral;
-          j["sigma_t"] = or_auto(b.sigma_t, b.sigma_t == 0);
-          j["sigma_g"] = or_auto(b.sigma_g, b.sigma_g == 0);
-          j["window"] = b.window;
-          j["iterations"] = b.iterations;
-          j["kernel"] = b.kernel == BilateralKernel::paper ? "paper" : "gaussian";
-          j["boundary"] = std::string(to_string(b.boundary));
-          if (std::isfinite(b.sigma_p)) j["sigma_p"] = b.sigma_p;
-        },
-    .needs_noise = bof_needs_noise,
-    .resolve =
-        [](FilterSettings& s, const NoiseContext& c) {
-          if (bof_needs_noise(s))
-            s.bilateral = automatic_bilateral(s.bilateral, c.sigma_hat, c.frame_time);
-        },
-    .run =
-        [](const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
-          return BilateralJob{s.bilateral, io}.run();
-        },
-};
+MethodEntry bof_entry() {
+  return {
+      .method = Method::bof,
+      .name = "bof",
+      .help = "bof: bilateral orientation filter (Courty 2008): smooths jitter, keeps edges",
+      .options = {{.flags = "--sigma-t",
+                   .help = kSigmaTHelp,
+                   .default_number = 1.0,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "sigma_t",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.bilateral.sigma_t = x; }},
+                  {.flags = "--window,-k",
+                   .help = kWindowHelp,
+                   .type = MethodOption::Type::integer,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "window",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.bilateral.window = int(x); }},
+                  {.flags = "--sigma-g",
+                   .help = "bof: range width, full rotation angle, in rad or e.g. 10deg (0 = "
+                           "automatic, from the noise)",
+                   .default_number = 0.2,
+                   .angle = true,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "sigma_g",
+                   .implausible_above = kPi / 2,
+                   .implausible_why = "steps smaller than it are smoothed as jitter",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.bilateral.sigma_g = x; }},
+                  {.flags = "--iterations",
+                   .help = "bof: how many times the filter runs on its own output",
+                   .type = MethodOption::Type::integer,
+                   .default_number = 5,
+                   .check = MethodOption::Check::positive,
+                   .json_key = "iterations",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.bilateral.iterations = int(x); }},
+                  {.flags = "--kernel",
+                   .help = "bof: gaussian, or paper (Courty's printed kernel, for comparison)",
+                   .type = MethodOption::Type::word,
+                   .default_word = "gaussian",
+                   .choices = {"gaussian", "paper"},
+                   .json_key = "kernel",
+                   .apply =
+                       [](FilterSettings& s, double, const std::string& w) {
+                         s.bilateral.kernel =
+                             w == "paper" ? BilateralKernel::paper : BilateralKernel::gaussian;
+                       }},
+                  {.flags = "--sigma-p",
+                   .help = "bof: range width for translations in the file's length unit (0 = "
+                           "none: Gaussian)",
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "sigma_p",
+                   .apply =
+                       [](FilterSettings& s, double x, const std::string&) {
+                         s.bilateral.sigma_p = x > 0 ? x : std::numeric_limits<double>::infinity();
+                       }},
+                  boundary_option([](FilterSettings& s, double, const std::string& w) {
+                    s.bilateral.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                  })},
+      .validate =
+          [](const FilterSettings& s) {
+            BilateralParams p = s.bilateral;
+            if (p.sigma_g == 0) p.sigma_g = 1;  // automatic: resolved per clip
+            if (p.sigma_t == 0) p.sigma_t = 1;
+            return p.validate();
+          },
+      .to_json =
+          [](const FilterSettings& s, json& j) {
+            const BilateralParams& b = s.bilateral;
+            j["sigma_t"] = or_auto(b.sigma_t, b.sigma_t == 0);
+            j["sigma_g"] = or_auto(b.sigma_g, b.sigma_g == 0);
+            j["window"] = b.window;
+            j["iterations"] = b.iterations;
+            j["kernel"] = b.kernel == BilateralKernel::paper ? "paper" : "gaussian";
+            j["boundary"] = std::string(to_string(b.boundary));
+            if (std::isfinite(b.sigma_p)) j["sigma_p"] = b.sigma_p;
+          },
+      .needs_noise = bof_needs_noise,
+      .resolve =
+          [](FilterSettings& s, const NoiseContext& c) {
+            if (bof_needs_noise(s))
+              s.bilateral = automatic_bilateral(s.bilateral, c.sigma_hat, c.frame_time);
+          },
+      .run =
+          [](const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
+            return BilateralJob{s.bilateral, io}.run();
+          },
+  };
+}
 
 // nlpm (kernels/nlpm.hpp): h = 0 and a range < 0 ask for the noise; translation_sigma_t < 0 for
 // automatic_translation_sigma_t.
@@ -88,49 +173,127 @@ bool nlpm_needs_noise(const FilterSettings& s) {
   return s.nlpm.h == 0 || s.nlpm_range < 0;
 }
 
-const MethodEntry kNlpm{
-    .method = Method::nlpm,
-    .name = "nlpm",
-    .help = "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses",
-    .shard_by_frames = true,
-    .validate =
-        [](const FilterSettings& s) {
-          NlpmParams p = s.nlpm;
-          if (p.h == 0) p.h = 1;  // automatic: checked per clip
-          if (p.translation_sigma_t < 0) p.translation_sigma_t = 0;
-          return p.validate();
-        },
-    .to_json =
-        [](const FilterSettings& s, json& j) {
-          j["search_radius"] = s.nlpm.search_radius;
-          j["patch_radius"] = s.nlpm.patch_radius;
-          j["h"] = or_auto(s.nlpm.h, s.nlpm.h == 0);
-          j["space"] = s.nlpm.space == NlpmSpace::log ? "log" : "tangent";
-          j["range_sigma"] = or_auto(s.nlpm_range, s.nlpm_range < 0);
-          j["translation_sigma_t"] =
-              or_auto(s.nlpm.translation_sigma_t, s.nlpm.translation_sigma_t < 0);
-          j["boundary"] = std::string(to_string(s.nlpm.boundary));
-        },
-    .needs_noise = nlpm_needs_noise,
-    .resolve =
-        [](FilterSettings& s, const NoiseContext& c) {
-          if (s.nlpm.h == 0) s.nlpm.h = kNlpmAutoFactor * c.sigma_hat;
-          if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * c.sigma_hat;
-          if (c.automatic) {
-            s.nlpm.h = std::max(s.nlpm.h, kAutoNlpmMinH);
-            s.nlpm_range = std::max(s.nlpm_range, kAutoNlpmMinRange);
-          }
-          s.nlpm.range_sigma = std::max(0.0, s.nlpm_range);
-          if (s.nlpm.translation_sigma_t < 0)
-            s.nlpm.translation_sigma_t =
-                automatic_translation_sigma_t(c.translation_noise(), c.frame_time, c.body_height);
-        },
-    .run =
-        [](const FilterSettings& s, const MotionIO& io,
-           std::span<const std::uint8_t> distance_joints) {
-          return NlpmJob{s.nlpm, io, distance_joints}.run();
-        },
-};
+MethodEntry nlpm_entry() {
+  return {
+      .method = Method::nlpm,
+      .name = "nlpm",
+      .help = "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses",
+      .options = {{.flags = "--search-radius,-K",
+                   .help = "nlpm: search window K (2K+1 poses)",
+                   .type = MethodOption::Type::integer,
+                   .default_number = 10,
+                   .check = MethodOption::Check::positive,
+                   .json_key = "search_radius",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.nlpm.search_radius = int(x); }},
+                  {.flags = "--patch-radius,-P",
+                   .help = "nlpm: patch radius P (2P+1 poses)",
+                   .type = MethodOption::Type::integer,
+                   .default_number = 5,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "patch_radius",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.nlpm.patch_radius = int(x); }},
+                  {.flags = "--h",
+                   .help = "nlpm: strength in rad or e.g. 2deg (0 = automatic, from the estimated "
+                           "noise)",
+                   .angle = true,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "h",
+                   .implausible_above = kPi / 2,
+                   .implausible_why = "every pose counts as similar to every other",
+                   .apply = [](FilterSettings& s, double x, const std::string&) { s.nlpm.h = x; }},
+                  {.flags = "--space",
+                   .help = "nlpm: tangent (default), or log (the paper, literally)",
+                   .type = MethodOption::Type::word,
+                   .default_word = "tangent",
+                   .choices = {"tangent", "log"},
+                   .json_key = "space",
+                   .apply =
+                       [](FilterSettings& s, double, const std::string& w) {
+                         s.nlpm.space = w == "log" ? NlpmSpace::log : NlpmSpace::tangent;
+                       }},
+                  {.flags = "--nlpm-range",
+                   .help = "nlpm: per-joint range term, off (the spec's nlpm), auto (5 x the "
+                           "estimated noise) or a width in rad or e.g. 10deg: a joint that "
+                           "disagrees cannot drag the others",
+                   .type = MethodOption::Type::word,
+                   .default_word = "off",
+                   .angle = true,
+                   .check_word = [](const std::string& v) -> std::string {
+                     if (v == "off" || v == "auto") return "";
+                     const std::optional<double> x = finite_number(v);
+                     return x && *x > 0
+                                ? ""
+                                : "expected off, auto or a positive width in radians, got " + v;
+                   },
+                   .json_key = "range_sigma",
+                   .implausible_above = kPi,
+                   .implausible_why = "no joint can disagree by more than pi",
+                   .apply =
+                       [](FilterSettings& s, double, const std::string& w) {
+                         s.nlpm_range = w == "off" ? 0.0 : w == "auto" ? -1.0 : std::stod(w);
+                       }},
+                  {.flags = "--translation-sigma-t",
+                   .help = "nlpm: Gaussian width in frames for the position channels (pose "
+                           "weights do not follow a trajectory), auto (from the estimated position "
+                           "noise) or 0 (keep)",
+                   .type = MethodOption::Type::word,
+                   .default_word = "auto",
+                   .check_word = [](const std::string& v) -> std::string {
+                     if (v == "auto") return "";
+                     const std::optional<double> x = finite_number(v);
+                     return x && *x >= 0 ? "" : "expected auto or a width in frames >= 0, got " + v;
+                   },
+                   .json_key = "translation_sigma_t",
+                   .apply =
+                       [](FilterSettings& s, double, const std::string& w) {
+                         s.nlpm.translation_sigma_t =
+                             w == "auto" ? kAutomaticTranslationSigma : std::stod(w);
+                       }},
+                  boundary_option([](FilterSettings& s, double, const std::string& w) {
+                    s.nlpm.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                  })},
+      .shard_by_frames = true,
+      .validate =
+          [](const FilterSettings& s) {
+            NlpmParams p = s.nlpm;
+            if (p.h == 0) p.h = 1;  // automatic: checked per clip
+            if (p.translation_sigma_t < 0) p.translation_sigma_t = 0;
+            return p.validate();
+          },
+      .to_json =
+          [](const FilterSettings& s, json& j) {
+            j["search_radius"] = s.nlpm.search_radius;
+            j["patch_radius"] = s.nlpm.patch_radius;
+            j["h"] = or_auto(s.nlpm.h, s.nlpm.h == 0);
+            j["space"] = s.nlpm.space == NlpmSpace::log ? "log" : "tangent";
+            j["range_sigma"] = or_auto(s.nlpm_range, s.nlpm_range < 0);
+            j["translation_sigma_t"] =
+                or_auto(s.nlpm.translation_sigma_t, s.nlpm.translation_sigma_t < 0);
+            j["boundary"] = std::string(to_string(s.nlpm.boundary));
+          },
+      .needs_noise = nlpm_needs_noise,
+      .resolve =
+          [](FilterSettings& s, const NoiseContext& c) {
+            if (s.nlpm.h == 0) s.nlpm.h = kNlpmAutoFactor * c.sigma_hat;
+            if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * c.sigma_hat;
+            if (c.automatic) {
+              s.nlpm.h = std::max(s.nlpm.h, kAutoNlpmMinH);
+              s.nlpm_range = std::max(s.nlpm_range, kAutoNlpmMinRange);
+            }
+            s.nlpm.range_sigma = std::max(0.0, s.nlpm_range);
+            if (s.nlpm.translation_sigma_t < 0)
+              s.nlpm.translation_sigma_t =
+                  automatic_translation_sigma_t(c.translation_noise(), c.frame_time, c.body_height);
+          },
+      .run =
+          [](const FilterSettings& s, const MotionIO& io,
+             std::span<const std::uint8_t> distance_joints) {
+            return NlpmJob{s.nlpm, io, distance_joints}.run();
+          },
+  };
+}
 
 // The linear filters (kernels/linear_filter.hpp): one entry each, all on LinearParams.
 template <LinearKind kKind>
@@ -147,104 +310,180 @@ Status run_linear(const FilterSettings& s, const MotionIO& io, std::span<const s
   return LinearFilterJob{s.linear, io}.run();
 }
 
-const MethodEntry kGaussian{
-    .method = Method::gaussian,
-    .name = "gaussian",
-    .help = "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)",
-    .normalize = set_linear_kind<LinearKind::gaussian>,
-    .validate = validate_linear<LinearKind::gaussian>,
-    .to_json =
-        [](const FilterSettings& s, json& j) {
-          j["sigma_t"] = s.linear.sigma_t;
-          j["window"] = s.linear.window;
-          j["boundary"] = std::string(to_string(s.linear.boundary));
-        },
-    .needs_noise = never,
-    .resolve = nothing_to_resolve,
-    .run = run_linear,
-};
+MethodEntry gaussian_entry() {
+  return {
+      .method = Method::gaussian,
+      .name = "gaussian",
+      .help = "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)",
+      .options = {{.flags = "--sigma-t",
+                   .help = kSigmaTHelp,
+                   .default_number = 1.0,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "sigma_t",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.linear.sigma_t = x; }},
+                  {.flags = "--window,-k",
+                   .help = kWindowHelp,
+                   .type = MethodOption::Type::integer,
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "window",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.linear.window = int(x); }},
+                  boundary_option([](FilterSettings& s, double, const std::string& w) {
+                    s.linear.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                  })},
+      .normalize = set_linear_kind<LinearKind::gaussian>,
+      .validate = validate_linear<LinearKind::gaussian>,
+      .to_json =
+          [](const FilterSettings& s, json& j) {
+            j["sigma_t"] = s.linear.sigma_t;
+            j["window"] = s.linear.window;
+            j["boundary"] = std::string(to_string(s.linear.boundary));
+          },
+      .needs_noise = never,
+      .resolve = nothing_to_resolve,
+      .run = run_linear,
+  };
+}
 
-const MethodEntry kButterworth{
-    .method = Method::butterworth,
-    .name = "butterworth",
-    .help = {},  // on gaussian's line
-    .normalize = set_linear_kind<LinearKind::butterworth>,
-    .validate = validate_linear<LinearKind::butterworth>,
-    .to_json =
-        [](const FilterSettings& s, json& j) {
-          j["order"] = s.linear.order;
-          j["cutoff"] = s.linear.cutoff;
-          j["boundary"] = std::string(to_string(s.linear.boundary));
-        },
-    .needs_noise = never,
-    .resolve = nothing_to_resolve,
-    .run = run_linear,
-};
+MethodEntry butterworth_entry() {
+  return {
+      .method = Method::butterworth,
+      .name = "butterworth",
+      .help = {},  // on gaussian's line
+      .options = {{.flags = "--order",
+                   .help = "butterworth: filter order n",
+                   .type = MethodOption::Type::integer,
+                   .default_number = 2,
+                   .check = MethodOption::Check::range,
+                   .min = 1,
+                   .max = 8,
+                   .json_key = "order",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.linear.order = int(x); }},
+                  {.flags = "--cutoff",
+                   .help = "butterworth: single-pass -3 dB cut-off in Hz",
+                   .default_number = 6.0,
+                   .check = MethodOption::Check::positive,
+                   .json_key = "cutoff",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.linear.cutoff = x; }},
+                  boundary_option([](FilterSettings& s, double, const std::string& w) {
+                    s.linear.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                  })},
+      .normalize = set_linear_kind<LinearKind::butterworth>,
+      .validate = validate_linear<LinearKind::butterworth>,
+      .to_json =
+          [](const FilterSettings& s, json& j) {
+            j["order"] = s.linear.order;
+            j["cutoff"] = s.linear.cutoff;
+            j["boundary"] = std::string(to_string(s.linear.boundary));
+          },
+      .needs_noise = never,
+      .resolve = nothing_to_resolve,
+      .run = run_linear,
+  };
+}
 
-const MethodEntry kMovingMean{
-    .method = Method::moving_mean,
-    .name = "moving-mean",
-    .help = {},  // on gaussian's line
-    .normalize = set_linear_kind<LinearKind::moving_mean>,
-    .validate = validate_linear<LinearKind::moving_mean>,
-    .to_json =
-        [](const FilterSettings& s, json& j) {
-          j["passes"] = s.linear.passes;
-          j["boundary"] = std::string(to_string(s.linear.boundary));
-        },
-    .needs_noise = never,
-    .resolve = nothing_to_resolve,
-    .run = run_linear,
-};
+MethodEntry moving_mean_entry() {
+  return {
+      .method = Method::moving_mean,
+      .name = "moving-mean",
+      .help = {},  // on gaussian's line
+      .options = {{.flags = "--passes",
+                   .help = "moving-mean: passes of Blender's Smooth Keys mask",
+                   .type = MethodOption::Type::integer,
+                   .default_number = 5,
+                   .check = MethodOption::Check::positive,
+                   .json_key = "passes",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.linear.passes = int(x); }},
+                  boundary_option([](FilterSettings& s, double, const std::string& w) {
+                    s.linear.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                  })},
+      .normalize = set_linear_kind<LinearKind::moving_mean>,
+      .validate = validate_linear<LinearKind::moving_mean>,
+      .to_json =
+          [](const FilterSettings& s, json& j) {
+            j["passes"] = s.linear.passes;
+            j["boundary"] = std::string(to_string(s.linear.boundary));
+          },
+      .needs_noise = never,
+      .resolve = nothing_to_resolve,
+      .run = run_linear,
+  };
+}
 
 // kalman (kernels/kalman.hpp): lambda = 0 asks for kalman_auto_lambda.
-const MethodEntry kKalman{
-    .method = Method::kalman,
-    .name = "kalman",
-    .help = "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline",
-    .validate = [](const FilterSettings& s) { return s.kalman.validate(); },
-    .to_json =
-        [](const FilterSettings& s, json& j) {
-          j["lambda"] = or_auto(s.kalman.lambda, s.kalman.lambda == 0);
-          j["boundary"] = std::string(to_string(s.kalman.boundary));
-        },
-    .needs_noise = [](const FilterSettings& s) { return s.kalman.lambda == 0; },
-    .resolve =
-        [](FilterSettings& s, const NoiseContext& c) {
-          if (s.kalman.lambda == 0) s.kalman.lambda = kalman_auto_lambda(c.sigma_hat, c.frame_time);
-        },
-    .run =
-        [](const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
-          return KalmanJob{s.kalman, io}.run();
-        },
-};
+MethodEntry kalman_entry() {
+  return {
+      .method = Method::kalman,
+      .name = "kalman",
+      .help = "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline",
+      .options = {{.flags = "--kalman-lambda",
+                   .help = "kalman: process over measurement noise q/r (0 = automatic, from the "
+                           "noise)",
+                   .check = MethodOption::Check::non_negative,
+                   .json_key = "lambda",
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.kalman.lambda = x; }},
+                  boundary_option([](FilterSettings& s, double, const std::string& w) {
+                    s.kalman.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                  })},
+      .validate = [](const FilterSettings& s) { return s.kalman.validate(); },
+      .to_json =
+          [](const FilterSettings& s, json& j) {
+            j["lambda"] = or_auto(s.kalman.lambda, s.kalman.lambda == 0);
+            j["boundary"] = std::string(to_string(s.kalman.boundary));
+          },
+      .needs_noise = [](const FilterSettings& s) { return s.kalman.lambda == 0; },
+      .resolve =
+          [](FilterSettings& s, const NoiseContext& c) {
+            if (s.kalman.lambda == 0)
+              s.kalman.lambda = kalman_auto_lambda(c.sigma_hat, c.frame_time);
+          },
+      .run =
+          [](const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
+            return KalmanJob{s.kalman, io}.run();
+          },
+  };
+}
 
-const MethodEntry kNone{
-    .method = Method::none,
-    .name = "none",
-    .help = "none: copy (checks the round trip)",
-    .validate = nothing_to_check,
-    .to_json = no_parameters,
-    .needs_noise = never,
-    .resolve = nothing_to_resolve,
-    .run = runs_nothing,
-};
+MethodEntry none_entry() {
+  return {
+      .method = Method::none,
+      .name = "none",
+      .help = "none: copy (checks the round trip)",
+      .validate = nothing_to_check,
+      .to_json = no_parameters,
+      .needs_noise = never,
+      .resolve = nothing_to_resolve,
+      .run = runs_nothing,
+  };
+}
 
 // auto: replaced per clip by the method choose_automatic picks (resolve_parameters).
-const MethodEntry kAutomatic{
-    .method = Method::automatic,
-    .name = "auto",
-    .help = "auto: the method and its parameters chosen per clip from its measured noise",
-    .validate = nothing_to_check,
-    .to_json = no_parameters,
-    .needs_noise = [](const FilterSettings&) { return true; },
-    .resolve = nothing_to_resolve,
-    .run = runs_nothing,
-};
+MethodEntry automatic_entry() {
+  return {
+      .method = Method::automatic,
+      .name = "auto",
+      .help = "auto: the method and its parameters chosen per clip from its measured noise",
+      .validate = nothing_to_check,
+      .to_json = no_parameters,
+      .needs_noise = [](const FilterSettings&) { return true; },
+      .resolve = nothing_to_resolve,
+      .run = runs_nothing,
+  };
+}
 
-// In the order of the Method enum (method_entry indexes it).
-const MethodEntry kEntries[] = {kNone,        kBof,        kNlpm,   kGaussian,
-                                kButterworth, kMovingMean, kKalman, kAutomatic};
+// In the order of the Method enum (method_entry indexes it); built on first use, so that no
+// static initializer depends on another file's.
+const std::vector<MethodEntry>& entries() {
+  static const std::vector<MethodEntry> table = {
+      none_entry(),        bof_entry(),         nlpm_entry(),   gaussian_entry(),
+      butterworth_entry(), moving_mean_entry(), kalman_entry(), automatic_entry()};
+  return table;
+}
 
 // eval's variants --------------------------------------------------------------------------
 
@@ -458,21 +697,27 @@ const std::vector<EvalVariant>& variants() {
 }  // namespace
 
 std::span<const MethodEntry> method_entries() {
-  return kEntries;
+  return entries();
 }
 
 const MethodEntry& method_entry(Method method) {
-  return kEntries[std::size_t(method)];
+  return entries()[std::size_t(method)];
 }
 
 const MethodEntry* find_method(std::string_view name) {
-  for (const MethodEntry& e : kEntries)
+  for (const MethodEntry& e : entries())
     if (e.name == name) return &e;
   return nullptr;
 }
 
 std::span<const EvalVariant> eval_variants() {
   return variants();
+}
+
+std::string_view MethodOption::long_name() const {
+  std::string_view name = flags.substr(0, flags.find(','));
+  while (!name.empty() && name.front() == '-') name.remove_prefix(1);
+  return name;
 }
 
 FilterSettings resolve_parameters(const FilterSettings& settings, const NoiseContext& context,

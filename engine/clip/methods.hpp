@@ -39,10 +39,41 @@ struct GridAxis {
   std::vector<double> values;
 };
 
+// One command-line option of a method's parameters, as data: app/filter_options.cpp makes it a
+// CLI11 option (the engine never includes CLI11). Several methods may declare the same option
+// (--sigma-t: bof and gaussian): it is registered once, with the first declaration's text, default
+// and checks, and its value goes to every declaration's `apply`.
+struct MethodOption {
+  enum class Type { real, integer, word };
+  enum class Check { none, non_negative, positive, range };
+  std::string_view flags{};  // "--window,-k": the long name first
+  std::string_view help{};
+  Type type = Type::real;
+  double default_number = 0;        // real and integer
+  std::string_view default_word{};  // word
+  bool angle = false;  // rad, or degrees with "deg" (rewritten in radians before the checks)
+  Check check = Check::none;
+  int min = 0, max = 0;                     // Check::range
+  std::vector<std::string_view> choices{};  // word: one of these
+  // A word without choices: "" when `value` is acceptable, else what is wrong.
+  std::string (*check_word)(const std::string& value) = nullptr;
+  bool after_methods = false;   // an option of every method (--boundary): listed after the others
+  std::string_view json_key{};  // its key in provenance (FilterSettings::to_json)
+  // Past this (> 0) the value is almost surely degrees given as radians: a warning says so, and
+  // why.
+  double implausible_above = 0;
+  std::string_view implausible_why{};
+  // Sets the parameter in `settings` from the number (real, integer) or the word.
+  void (*apply)(FilterSettings& settings, double number, const std::string& word) = nullptr;
+
+  std::string_view long_name() const;  // "window" for "--window,-k"
+};
+
 struct MethodEntry {
   Method method = Method::none;
-  std::string_view name;  // --method's name
-  std::string_view help;  // its line in --method's help (empty: shares the line of another)
+  std::string_view name{};  // --method's name
+  std::string_view help{};  // its line in --method's help (empty: shares the line of another)
+  std::vector<MethodOption> options{};  // its parameters on the command line
   // Shards: joint blocks (per-joint methods, settings.shard_joints), or time blocks
   // (settings.shard_frames) for a method that reads whole poses.
   bool shard_by_frames = false;
@@ -82,11 +113,11 @@ Status run_method(const FilterSettings& settings, MotionIO io,
 // eval's methods: each runs an engine method from a grid point (or with the automatic parameters
 // the engine uses when none is given). nlpm-robust is nlpm with its range term.
 struct EvalVariant {
-  std::string_view name;  // eval's --methods name
+  std::string_view name{};  // eval's --methods name
   Method method = Method::none;
   // The parameters a grid may name (README "eval"), and the default grid's axes.
-  std::vector<std::string> parameters;
-  std::vector<GridAxis> axes;
+  std::vector<std::string> parameters{};
+  std::vector<GridAxis> axes{};
   // The automatic rule, as eval's report states it.
   std::string (*rule)() = nullptr;
   // The settings a grid point asks for (nullptr: the automatic parameters), with the point's
