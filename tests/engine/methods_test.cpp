@@ -63,6 +63,56 @@ TEST(MethodTable, ProvenanceAndValidationGoThroughTheEntry) {
   EXPECT_TRUE(butterworth.validate().ok());
 }
 
+// Each option of each method: a value other than its default, set through the entry's `apply`,
+// comes back under the option's key in provenance (to_json); an option several methods declare
+// is declared alike by all of them (one CLI option serves them all).
+TEST(MethodTable, EveryOptionRoundTripsThroughProvenance) {
+  int options = 0;
+  for (const MethodEntry& e : method_entries())
+    for (const MethodOption& o : e.options) {
+      SCOPED_TRACE(std::string(e.name) + " " + std::string(o.flags));
+      ASSERT_TRUE(o.apply);
+      ASSERT_FALSE(o.json_key.empty());
+      FilterSettings s;
+      s.method = e.method;
+      nlohmann::json expected;
+      std::string word;
+      double number = 0;
+      if (o.type == MethodOption::Type::real) {
+        number = o.default_number + 0.5;
+        expected = number;
+      } else if (o.type == MethodOption::Type::integer) {
+        number = o.default_number + 1;
+        expected = int(number);
+      } else if (!o.choices.empty()) {
+        EXPECT_NE(std::find(o.choices.begin(), o.choices.end(), o.default_word), o.choices.end());
+        word = std::string(o.choices.back());
+        ASSERT_NE(word, o.default_word);
+        expected = word;
+      } else {
+        ASSERT_TRUE(o.check_word);
+        EXPECT_EQ(o.check_word(std::string(o.default_word)), "");
+        EXPECT_NE(o.check_word("-1"), "");
+        word = "0.5";
+        expected = 0.5;
+      }
+      o.apply(s, number, word);
+      EXPECT_TRUE(s.validate().ok()) << s.validate().message();
+      EXPECT_EQ(s.to_json().at(std::string(o.json_key)), expected);
+      ++options;
+      for (const MethodEntry& other : method_entries())
+        for (const MethodOption& twin : other.options)
+          if (twin.long_name() == o.long_name()) {
+            EXPECT_EQ(twin.flags, o.flags) << other.name;
+            EXPECT_EQ(twin.help, o.help) << other.name;
+            EXPECT_EQ(int(twin.type), int(o.type)) << other.name;
+            EXPECT_EQ(twin.default_number, o.default_number) << other.name;
+            EXPECT_EQ(twin.default_word, o.default_word) << other.name;
+          }
+    }
+  EXPECT_GE(options, 17);  // every method parameter of `clean --help`
+}
+
 TEST(MethodTable, EveryEvalMethodParsesAndNamesAnEngineMethod) {
   for (std::size_t i = 0; i < eval_variants().size(); ++i) {
     const EvalVariant& v = eval_variants()[i];
