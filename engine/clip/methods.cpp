@@ -663,6 +663,7 @@ const std::vector<EvalVariant>& variants() {
        .reports = chose<Method::kalman>},
       // Relative to the noise: h = 1.2 sigma_hat, as nlpm's rule.
       {.name = "nlpm-robust",
+       .note = "nlpm with the per-joint range term",
        .method = Method::nlpm,
        .parameters = {"h", "h_factor", "range_factor", "K", "P", "translation_sigma_t"},
        .axes = {{"range_factor", {1.5, 2, 3, 5, 8}}},
@@ -677,6 +678,7 @@ const std::vector<EvalVariant>& variants() {
            [](const FilterSettings& s) { return s.method == Method::nlpm && s.nlpm_range != 0; }},
       // No grid: the automatic choice only; its runs are reported as the variant it chose.
       {.name = "auto",
+       .note = "--method auto",
        .method = Method::automatic,
        .parameters = {},
        .axes = {},

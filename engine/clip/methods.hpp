@@ -114,6 +114,7 @@ Status run_method(const FilterSettings& settings, MotionIO io,
 // the engine uses when none is given). nlpm-robust is nlpm with its range term.
 struct EvalVariant {
   std::string_view name{};  // eval's --methods name
+  std::string_view note{};  // a word on it in eval's --help (empty: none)
   Method method = Method::none;
   // The parameters a grid may name (README "eval"), and the default grid's axes.
   std::vector<std::string> parameters{};
