@@ -212,10 +212,10 @@ int run_eval(const EvalCommand& command) {
     config.conditions.insert(config.conditions.end(), parsed.begin(), parsed.end());
   }
   std::vector<EvalMethod> methods;
-  const std::string list = command.methods.empty() ? all_eval_methods() : command.methods;
-  for (std::size_t pos = 0; pos <= list.size();) {
-    const std::size_t comma = std::min(list.find(',', pos), list.size());
-    const std::string name = list.substr(pos, comma - pos);
+  const std::string names = command.methods.empty() ? all_eval_methods() : command.methods;
+  for (std::size_t pos = 0; pos <= names.size();) {
+    const std::size_t comma = std::min(names.find(',', pos), names.size());
+    const std::string name = names.substr(pos, comma - pos);
     const auto m = parse_eval_method(name);
     if (!m) return usage_error("unknown method '" + name + "' in --methods");
     if (std::find(methods.begin(), methods.end(), *m) == methods.end()) methods.push_back(*m);
