@@ -147,6 +147,13 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->check(CLI::IsMember({"off", "lock", "both"}))
       ->capture_default_str()
       ->group("Evaluation");
+  cmd->add_option("--guard", command.guard,
+                  "auto's runs end with clean's guard (a clip whose jitter or skating came out "
+                  "above the noisy input's falls back to the input): on, as clean runs it; off, "
+                  "the filter (and the lock) alone")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str()
+      ->group("Evaluation");
   cmd->add_option(
          "--grid", command.grid,
          "replace one axis of a method's grid, repeatable: METHOD.PARAM=v1,v2,...\n"
@@ -232,6 +239,7 @@ int run_eval(const EvalCommand& command) {
   }
   config.grids = build_grids(methods, overrides, command.pops != "on", command.pops != "off");
   apply_feet_mode(config.grids, command.feet);
+  config.guard = command.guard == "on";
   config.lock_feet = std::any_of(config.grids.begin(), config.grids.end(),
                                  [](const MethodGrid& g) { return g.lock_feet; });
   config.repaired = std::any_of(config.grids.begin(), config.grids.end(),

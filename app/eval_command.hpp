@@ -18,6 +18,7 @@ struct EvalCommand {
   std::string methods;             // empty: every method of the table (engine/clip/methods.hpp)
   std::string pops = "both";       // off: the spec filters; on: after the pop stage; both
   std::string feet = "off";        // off, lock, both (eval_spec.hpp, apply_feet_mode)
+  std::string guard = "on";        // auto's runs end with the engine's guard, as clean's do
   std::vector<std::string> grid;   // --grid METHOD.PARAM=v1,v2
   unsigned long long seed = 1;
   double unit_cm = 0;  // 0 = guess per clip

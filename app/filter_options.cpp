@@ -105,6 +105,14 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
                  "filter's result. Default: lock with --method auto; off with a named method")
       ->check(CLI::IsMember({"lock", "off"}))
       ->group("Cleaning");
+  cmd.add_option("--guard", guard,
+                 "last: a clip whose joint positions come out with more jitter or more foot "
+                 "skating than they went in with (the clip as read, over its own contacts) "
+                 "falls back to the filter without the lock, then to the input (pops repaired) "
+                 "locked, then to the input, so cleaning never makes a capture worse on what it "
+                 "can measure. Default: on with --method auto; off with a named method")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->group("Cleaning");
   auto* split_on = cmd.add_flag(
       "--split-impossible", split_impossible_on,
       "filter separately the segments between physically impossible steps (a joint turning "
@@ -153,6 +161,7 @@ FilterSettings FilterOptions::settings() const {
   s.split_impossible =
       split_impossible_on || (!split_impossible_off && s.method == Method::automatic);
   s.lock_feet = feet.empty() ? s.method == Method::automatic : feet == "lock";
+  s.guard_motion = guard.empty() ? s.method == Method::automatic : guard == "on";
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;
   return s;

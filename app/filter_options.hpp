@@ -18,7 +18,8 @@ struct FilterOptions {
   std::string translations = "filter";
   // Empty: the method's default (auto for --method auto, else off).
   std::string pops, garbage_joints = "keep";
-  std::string feet;  // empty: lock for --method auto, else off
+  std::string feet;   // empty: lock for --method auto, else off
+  std::string guard;  // empty: on for --method auto, else off
   int shard_joints = 8, shard_frames = 256;
   // The methods' own options (engine/clip/methods.hpp, MethodEntry::options), by long name
   // without the dashes ("sigma-t"): one map per type, so CLI11 writes into them.

@@ -31,6 +31,8 @@
 #include "engine/clip/clip_conditioning.hpp"
 #include "engine/clip/filter_settings.hpp"
 #include "engine/clip/foot_stage.hpp"
+#include "engine/clip/motion_check.hpp"
+#include "engine/clip/motion_guard.hpp"
 #include "engine/run/pipeline.hpp"
 #include "io/bvh_reader.hpp"
 #include "io/bvh_writer.hpp"
@@ -148,6 +150,7 @@ struct Outcome {
   Clip output;
   engine::ResolvedSettings resolved;
   engine::ClipConditioning conditioning;
+  std::optional<engine::Kept> kept;  // with the guard: what the clip kept
 };
 
 // The split and process stages of engine/run/job.cpp's run_job for one clip, with the shards run in
@@ -158,20 +161,37 @@ Outcome run_clip(const FilterSettings& settings, Clip input, int threads) {
   if (std::string why = engine::check_clip_values(input); !why.empty())
     throw py::value_error(prefix + why);
   make_hemisphere_continuous(input.rotation_span());
+  const bool guard = settings.guard_motion && settings.method != engine::Method::none;
+  Clip raw;
+  if (guard) raw = input;
   out.conditioning = engine::condition_clip(settings, input);
   out.resolved = engine::resolve_for_clip(settings, input, out.conditioning.garbage);
+  engine::MotionMeasure before;
+  if (guard) before = engine::measure_motion(raw, nullptr, out.resolved.segments);
   // As run_job: contacts on the conditioned input, locked after the filter (unchanged clips too).
   const bool lock = settings.lock_feet && settings.method != engine::Method::none;
   engine::ClipFeet feet;
   if (lock) feet = engine::detect_feet(input);
   auto finish = [&] {
+    if (guard) {
+      engine::MotionGuardJob g;
+      g.input = &input;
+      g.raw = &raw;
+      g.before = &before;
+      g.segments = &out.resolved.segments;
+      g.feet = lock ? &feet : nullptr;
+      g.output = &out.output;
+      if (const Status s = g.run(); !s.ok()) throw py::value_error(prefix + s.message());
+      out.kept = g.kept;
+      return;
+    }
     if (!lock) return;
     if (const Status s = engine::lock_feet_in_segments(feet, out.output, out.resolved.segments);
         !s.ok())
       throw py::value_error(prefix + "foot lock: " + s.message());
   };
   if (out.resolved.unchanged) {
-    out.output = std::move(input);
+    out.output = input;
     finish();
     return out;
   }
@@ -219,6 +239,7 @@ py::dict describe(const Outcome& o) {
   py::list segments;
   for (const Segment& s : o.resolved.segments) segments.append(py::make_tuple(s.begin, s.end));
   info["segments"] = segments;
+  info["kept"] = o.kept ? py::object(py::str(std::string(engine::to_string(*o.kept)))) : py::none();
   return info;
 }
 
@@ -254,7 +275,10 @@ py::object run_filter(const std::string& method, py::handle data, Options option
   {
     py::gil_scoped_release release;
     FilterSettings run = settings;
-    if (!in.motion) run.lock_feet = false;  // bare arrays have no legs
+    if (!in.motion) {  // bare arrays have no legs, nor positions to measure
+      run.lock_feet = false;
+      run.guard_motion = false;
+    }
     outcome = run_clip(run, std::move(in.clip), c.threads);
   }
   // Before the output is handed over (describe reads its skeleton).

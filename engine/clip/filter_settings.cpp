@@ -135,6 +135,7 @@ nlohmann::json FilterSettings::to_json() const {
     j["pops"] = std::string(to_string(pops));
     if (pops != PopsMode::off) j["garbage_joints"] = keep_garbage_joints ? "keep" : "filter";
     if (lock_feet) j["feet"] = "lock";
+    if (guard_motion) j["guard"] = "on";
   }
   method_entry(method).to_json(*this, j);
   return j;

@@ -112,6 +112,10 @@ struct FilterSettings {
   // After the filter (not for `none`): pin the planted feet, contacts found on the input
   // (engine/clip/foot_stage.hpp). --feet lock|off; lock by default with --method auto only.
   bool lock_feet = false;
+  // After the feet: a clip whose joint positions came out with more jitter or foot skating than
+  // it was read with keeps the input instead (engine/clip/motion_guard.hpp). --guard on|off; on
+  // by default with --method auto only.
+  bool guard_motion = false;
   double nlpm_range = 0;  // nlpm's range_sigma: 0 off, < 0 automatic, > 0 given (rad)
   // Filter each segment between physically impossible steps (kernels/motion_split.hpp: CMU's
   // synthetic T-pose frame 0) as a clip of its own.

@@ -78,14 +78,14 @@ void FeetTally::add(const std::string& clip, const Clip& data, const ClipFeet& f
   for (std::size_t l = 0; l < feet.legs.size(); ++l) {
     nlohmann::json intervals = nlohmann::json::array();
     for (const ContactInterval& c : feet.contacts[l]) intervals.push_back({c.begin, c.end});
-    contacts += feet.contacts[l].size();
+    if (feet.locked) contacts += feet.contacts[l].size();  // the guard may have unlocked them
     legs.push_back({{"joint", data.skeleton->joint_names[std::size_t(feet.legs[l].ankle)]},
                     {"contacts", feet.contacts[l].size()},
                     {"intervals", std::move(intervals)}});
   }
   locked_frames += std::size_t(feet.stats.locked_frames);
   lowered_frames += std::size_t(feet.stats.lowered_frames);
-  nlohmann::json entry = {{"clip", clip}, {"feet", std::move(legs)}};
+  nlohmann::json entry = {{"clip", clip}, {"feet", std::move(legs)}, {"locked", feet.locked}};
   if (feet.locked) entry["root_lowered_frames"] = feet.stats.lowered_frames;
   by_clip.push_back(std::move(entry));
 }

@@ -21,16 +21,25 @@ double ratio(double after, double before) {
 
 }  // namespace
 
-MotionMeasure measure_motion(const Clip& clip, const MotionMeasure* input) {
+MotionMeasure measure_motion(const Clip& clip, const MotionMeasure* input,
+                             std::span<const Segment> segments) {
   MotionMeasure m;
   if (!clip.skeleton || clip.frames < 3) return m;
   const std::vector<float> positions = joint_positions(clip);
   if (positions.empty()) return m;
   const TensorView<const float, 3> p{positions.data(), clip.frames, clip.joints()};
-  m.edge_frames = std::min(int(std::ceil(kEdgeSeconds / clip.frame_time)), clip.frames / 4);
-  const FrameRange range{m.edge_frames, clip.frames - m.edge_frames};
+  const Segment whole{0, clip.frames};
+  if (segments.empty()) segments = {&whole, 1};
+  const int edge = int(std::ceil(kEdgeSeconds / clip.frame_time));
+  m.edge_frames = std::min(edge, clip.frames / 4);
+  std::vector<FrameRange> ranges;
+  for (const Segment& s : segments)
+    if (s.frames() >= 3) {
+      const int e = std::min(edge, s.frames() / 4);
+      ranges.push_back({s.begin + e, s.end - e});
+    }
   PositionSums sums;
-  add_jitter(p, range, sums);
+  for (const FrameRange& range : ranges) add_jitter(p, range, sums);
   m.jitter = sums.jitter_n > 0 ? sums.jitter() : 0.0;
 
   if (input) {
@@ -52,15 +61,17 @@ MotionMeasure measure_motion(const Clip& clip, const MotionMeasure* input) {
     if (height <= 0 || !job.run().ok()) m.contacts.assign(m.feet.size(), {});
   }
   PositionSums skate;
-  for (std::size_t f = 0; f < m.feet.size() && f < m.contacts.size(); ++f)
-    add_skating(p, m.feet[f].ankle, m.contacts[f], range, skate);
+  for (const FrameRange& range : ranges)
+    for (std::size_t f = 0; f < m.feet.size() && f < m.contacts.size(); ++f)
+      add_skating(p, m.feet[f].ankle, m.contacts[f], range, skate);
   m.skating = skate.skate_n > 0 ? skate.skating() : 0.0;
   m.contact_steps = int(skate.skate_n);
   return m;
 }
 
 void MotionTally::add(const std::string& clip, const MotionMeasure& before,
-                      const MotionMeasure& after) {
+                      const MotionMeasure& after, std::optional<std::string_view> kept,
+                      bool fell_back) {
   const double jr = ratio(after.jitter, before.jitter);
   const double sr = before.contact_steps > 0 ? ratio(after.skating, before.skating) : 1.0;
   jitter_ratios.push_back(jr);
@@ -75,6 +86,11 @@ void MotionTally::add(const std::string& clip, const MotionMeasure& before,
                      {"contact_steps", before.contact_steps},
                      {"edge_frames", before.edge_frames},
                      {"worse", jr > kJitterWorse || sr > kSkatingWorse}});
+  if (kept) {
+    by_clip.back()["kept"] = std::string(*kept);
+    ++guarded;
+    if (fell_back) ++fallbacks;
+  }
 }
 
 void MotionTally::write_to(nlohmann::json& summary) const {
@@ -90,6 +106,7 @@ void MotionTally::write_to(nlohmann::json& summary) const {
       {"worse_limits", {{"jitter_ratio", kJitterWorse}, {"skating_ratio", kSkatingWorse}}},
       {"worse", worse},
       {"by_clip", by_clip}};
+  if (guarded > 0) summary["motion"]["guard"] = {{"clips", guarded}, {"fallbacks", fallbacks}};
 }
 
 std::string describe_motion(const nlohmann::json& summary) {
@@ -99,6 +116,13 @@ std::string describe_motion(const nlohmann::json& summary) {
       "  motion: jitter {:.2f}x, foot skating {:.2f}x the input's (median over {} clips)",
       m["jitter_ratio_median"].get<double>(), m["skating_ratio_median"].get<double>(),
       m["clips"].get<std::size_t>());
+  if (m.contains("guard") && m["guard"]["fallbacks"].get<std::size_t>() > 0) {
+    const auto n = m["guard"]["fallbacks"].get<std::size_t>();
+    line += fmt::format(
+        "; the guard kept {} {} nearer the input, where cleaning raised jitter "
+        "or skating",
+        n, n == 1 ? "clip" : "clips");
+  }
   const auto& worse = m["worse"];
   if (worse.empty()) return line + "; no clip got worse\n";
   line += fmt::format("; {} {} worse (jitter > {}x or skating > {}x):", worse.size(),

@@ -12,6 +12,7 @@
 
 #include "core/quaternion.hpp"
 #include "engine/clip/clip_conditioning.hpp"
+#include "engine/clip/motion_guard.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
@@ -44,15 +45,20 @@ nlohmann::json feet_json(const ClipFeet& feet) {
 }
 
 // The feet of a noisy clip: its rotations and translations on the clean clip's skeleton.
-ClipFeet noisy_feet(const Clip& clean, const std::vector<float>& rotations,
-                    const std::vector<float>& translations) {
+// The clean clip's skeleton and timing with other values.
+Clip with_values(const Clip& clean, std::vector<float> rotations, std::vector<float> translations) {
   Clip c;
   c.skeleton = clean.skeleton;
   c.frame_time = clean.frame_time;
   c.frames = clean.frames;
-  c.rotations = rotations;
-  c.translations = translations;
-  return detect_feet(c);
+  c.rotations = std::move(rotations);
+  c.translations = std::move(translations);
+  return c;
+}
+
+ClipFeet noisy_feet(const Clip& clean, const std::vector<float>& rotations,
+                    const std::vector<float>& translations) {
+  return detect_feet(with_values(clean, rotations, translations));
 }
 
 }  // namespace
@@ -118,7 +124,8 @@ EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config) {
 
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out,
-                   std::vector<float>& out_translations, nlohmann::json* resolved, bool lock_feet) {
+                   std::vector<float>& out_translations, nlohmann::json* resolved, bool lock_feet,
+                   bool guard) {
   const int joints = clip.clean.joints();
   const std::vector<float>& input = repaired ? noisy.repaired : noisy.rotations;
   const std::vector<double>& sigma_hats = repaired ? noisy.repaired_sigma_hats : noisy.sigma_hats;
@@ -155,6 +162,28 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
       used["sigma_hat"] = sigma_hats[s];
       resolved->push_back(used);
     }
+  }
+  if (guard) {
+    Clip filtered = with_values(clip.clean, std::move(out), std::move(out_translations));
+    const Clip in = with_values(clip.clean, input, noisy.translations);
+    const Clip raw = with_values(clip.clean, noisy.rotations, noisy.translations);
+    ClipFeet feet = repaired ? noisy.repaired_feet : noisy.feet;
+    MotionGuardJob g;
+    g.input = &in;
+    g.raw = &raw;
+    g.before = &noisy.before;
+    g.segments = &clip.segments;
+    g.feet = lock_feet ? &feet : nullptr;
+    g.output = &filtered;
+    const Status s = g.run();
+    out = std::move(filtered.rotations);
+    out_translations = std::move(filtered.translations);
+    if (!s) return s;
+    if (resolved) {
+      *resolved = {{"segments", *resolved}, {"kept", std::string(to_string(g.kept))}};
+      if (lock_feet) (*resolved)["feet"] = feet_json(feet);
+    }
+    return {};
   }
   if (!lock_feet) return {};
   Clip filtered;
@@ -230,6 +259,9 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
         if (config.repaired)
           noisy.repaired_feet = noisy_feet(clip.clean, noisy.repaired, noisy.translations);
       }
+      if (config.guard)
+        noisy.before = measure_motion(with_values(clip.clean, noisy.rotations, noisy.translations),
+                                      nullptr, clip.segments);
       r.noisy_scores[c][k] =
           score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,
                      {noisy.rotations.data(), clip.clean.frames, clip.clean.joints()},
@@ -263,9 +295,9 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       const ParamPoint* point = t.p < grid.points.size() ? &grid.points[t.p] : nullptr;
       const EvalClip& clip = r.clips[t.k];
       TaskResult& result = r.results[t.m][t.p][t.c][t.k];
-      const Status s =
-          filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
-                      out_translations, point ? nullptr : &result.resolved, grid.lock_feet);
+      const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
+                                   out_translations, point ? nullptr : &result.resolved,
+                                   grid.lock_feet, config.guard && grid.method.automatic());
       if (!s) {
         result.error = s.message();
       } else {

@@ -13,6 +13,7 @@
 
 #include "core/clip.hpp"
 #include "engine/clip/foot_stage.hpp"
+#include "engine/clip/motion_check.hpp"
 #include "engine/eval/eval_metrics.hpp"
 #include "engine/eval/eval_spec.hpp"
 #include "kernels/motion_split.hpp"
@@ -28,6 +29,8 @@ struct EvalConfig {
   MotionSplitParams split;
   bool repaired = false;   // some grid runs on the conditioned clips: prepare them
   bool lock_feet = false;  // some grid locks the feet: find the noisy clips' contacts
+  // auto's runs end with the engine's guard (engine/clip/motion_guard.hpp), as `clean` does.
+  bool guard = true;
 };
 
 // One clean clip and what eval derives from it once.
@@ -58,6 +61,8 @@ struct NoisyClip {
   // With config.lock_feet: the legs and contacts found on the noisy clip (feet) and on the
   // conditioned one (repaired_feet), as `clean` finds them on the clip its filter sees.
   ClipFeet feet, repaired_feet;
+  // With config.guard: the noisy clip's jitter and skating, as the guard measures its input.
+  MotionMeasure before;
 };
 inline constexpr double kPoppedAngle = 0.25;
 
@@ -119,10 +124,12 @@ Spread psnr_spread(const EvalResults& results, std::size_t m, std::size_t p, std
 // of nlpm's pose distance.
 // `out_translations` receives the filtered translations (sized like the clip's).
 // With `lock_feet`, the planted feet are then pinned (engine/clip/foot_stage.hpp) with the noisy
-// clip's contacts.
+// clip's contacts. With `guard` (needs noisy.before), the engine's guard then keeps the first of
+// filtered (locked), filtered, input (locked), input that raises neither the jitter nor the
+// skating of the noisy clip (engine/clip/motion_guard.hpp).
 Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod method, bool repaired,
                    const ParamPoint* point, std::vector<float>& out,
                    std::vector<float>& out_translations, nlohmann::json* resolved,
-                   bool lock_feet = false);
+                   bool lock_feet = false, bool guard = false);
 
 }  // namespace mocap::engine::eval

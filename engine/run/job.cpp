@@ -10,6 +10,7 @@
 #include "engine/clip/clip_conditioning.hpp"
 #include "engine/clip/foot_stage.hpp"
 #include "engine/clip/motion_check.hpp"
+#include "engine/clip/motion_guard.hpp"
 #include "engine/run/automatic_tally.hpp"
 #include "engine/run/pipeline.hpp"
 #include "engine/run/progress.hpp"
@@ -26,6 +27,8 @@ struct ClipState {
   MotionMeasure before, after;  // what a viewer sees, as read and as written
   ClipFeet feet;                // with lock_feet: found on the input, locked on the output
   ReviewCapture review;         // with --report: the motion before and after, for the page
+  std::optional<Kept> kept;     // with the guard: what the clip kept
+  Clip raw;                     // with the guard: the clip as read, its last resort
 };
 
 // What this run does to the clip, kept with it in a library output.
@@ -66,6 +69,7 @@ RunSummary run_job(const Job& job) {
   // Jitter and skating before and after: for filters (not the copy of --method none, nor the
   // transforms of `noise`, whose point is to change the motion).
   const bool measure = settings.method != Method::none && !job.transform;
+  const bool guard = measure && settings.guard_motion;
   MotionTally motion;
   FeetTally feet;
   feet.lock = settings.lock_feet && settings.method != Method::none;
@@ -93,10 +97,15 @@ RunSummary run_job(const Job& job) {
       // written by another tool may not be. Same rotations, so harmless for `none`.
       make_hemisphere_continuous(item.input.rotation_span());
     }
-    MotionMeasure before;
+    // The clip as read, measured once the segments are known (after resolve), and the guard's
+    // last resort.
+    Clip raw;
     if (measure) {
-      const Timed timed(times, StageTimes::metrics);
-      before = measure_motion(item.input);
+      raw.skeleton = item.input.skeleton;
+      raw.frame_time = item.input.frame_time;
+      raw.frames = item.input.frames;
+      raw.rotations = item.input.rotations;
+      raw.translations = item.input.translations;
     }
     ReviewCapture review;
     if (job.review) {
@@ -113,8 +122,14 @@ RunSummary run_job(const Job& job) {
       const Timed timed(times, StageTimes::resolve);
       resolved = resolve_for_clip(settings, item.input, conditioning.garbage);
     }
+    MotionMeasure before;
+    if (measure) {
+      const Timed timed(times, StageTimes::metrics);
+      before = measure_motion(raw, nullptr, resolved.segments);
+    }
+    if (!guard) raw = {};
     ClipState state{std::move(resolved), {}, std::move(conditioning), std::move(before), {}, {},
-                    std::move(review)};
+                    std::move(review),   {}, std::move(raw)};
     if (settings.method != Method::none) record_provenance(state, item.input.provenance);
     // Contacts on the clip as it came (pops repaired): the filter is what makes feet slide.
     if (feet.lock) {
@@ -128,8 +143,12 @@ RunSummary run_job(const Job& job) {
     }
     item.context = std::move(state);
     if (std::any_cast<ClipState&>(item.context).resolved.unchanged) {
-      item.output = std::move(item.input);
-      item.input = {};
+      if (guard) {
+        item.output = item.input;  // the guard's fallback needs the input
+      } else {
+        item.output = std::move(item.input);
+        item.input = {};
+      }
       return {};
     }
     item.output = item.input;  // skeleton, frame time, source; the shards overwrite the tensors
@@ -143,18 +162,34 @@ RunSummary run_job(const Job& job) {
       item.fail(s.message());
   };
   stages.finish = [&](WorkItem& item) {
+    if (guard) {
+      // Lock, measure and, where the clip came out worse than it went in, fall back.
+      auto& state = std::any_cast<ClipState&>(item.context);
+      const Timed timed(times, StageTimes::guard);
+      MotionGuardJob g;
+      g.input = &item.input;
+      g.raw = &state.raw;
+      g.before = &state.before;
+      g.segments = &state.resolved.segments;
+      g.feet = feet.lock ? &state.feet : nullptr;
+      g.output = &item.output;
+      if (const Status s = g.run(); !s.ok()) return item.fail(s.message());
+      state.after = std::move(g.after);
+      state.kept = g.kept;
+      state.raw = {};
+    }
     item.input = {};  // free the input early: only the output goes on
-    if (feet.lock) {
+    if (feet.lock && !guard) {
       auto& state = std::any_cast<ClipState&>(item.context);
       const Timed timed(times, StageTimes::lock);
       if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments);
           !s.ok())
         return item.fail("foot lock: " + s.message());
     }
-    if (measure) {
+    if (measure && !guard) {
       auto& state = std::any_cast<ClipState&>(item.context);
       const Timed timed(times, StageTimes::metrics);
-      state.after = measure_motion(item.output, &state.before);
+      state.after = measure_motion(item.output, &state.before, state.resolved.segments);
     }
     if (job.review) {
       auto& state = std::any_cast<ClipState&>(item.context);
@@ -185,7 +220,12 @@ RunSummary run_job(const Job& job) {
       const auto& state = std::any_cast<const ClipState&>(item.context);
       tally.add(item.name, item.output, state.conditioning);
       automatic.add(item.name, state.resolved);
-      if (measure) motion.add(item.name, state.before, state.after);
+      if (measure) {
+        const Kept first = feet.lock ? Kept::filtered_locked : Kept::filtered;
+        motion.add(item.name, state.before, state.after,
+                   state.kept ? std::optional(to_string(*state.kept)) : std::nullopt,
+                   state.kept && *state.kept != first);
+      }
       if (feet.lock) feet.add(item.name, item.output, state.feet);
       if (job.review) {
         auto& review = std::any_cast<ClipState&>(item.context).review;

@@ -5,9 +5,9 @@
 namespace mocap::engine {
 
 nlohmann::json StageTimes::to_json() const {
-  static constexpr const char* kNames[] = {"read",     "check",  "condition", "resolve",
-                                           "contacts", "filter", "lock",      "metrics",
-                                           "prepare",  "write",  "review"};
+  static constexpr const char* kNames[] = {"read",     "check",   "condition", "resolve",
+                                           "contacts", "filter",  "lock",      "metrics",
+                                           "guard",    "prepare", "write",     "review"};
   static_assert(std::size(kNames) == kStages);
   nlohmann::json j = nlohmann::json::object();
   for (int s = 0; s < kStages; ++s)

@@ -21,6 +21,7 @@ class StageTimes {
     filter,     // the method's kernel jobs, all shards
     lock,       // foot locking
     metrics,    // jitter and skating before and after
+    guard,      // with --guard on: locking, the measure after and any fallback, together
     prepare,    // BVH formatting or chunk compression
     write,      // output files (serial)
     review,     // --report: the review page's data

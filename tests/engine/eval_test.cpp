@@ -255,7 +255,7 @@ TEST(EvalCommand, FeetBothAddsLockedRowsThatKeepTheCapturesSkating) {
   const auto r =
       test::run_cli("eval '" + test::shared_bvh_dir().string() + "' -o '" + out.path().string() +
                     "' --noise gaussian:0 --methods auto --pops on --feet both "
-                    "--frame-step 4 --no-plots");
+                    "--frame-step 4 --no-plots --guard off");  // the lock alone, no fallback
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto report = nlohmann::json::parse(test::read_text(out.path() / "report.json"));
   ASSERT_EQ(report["methods"].size(), 2u);
@@ -273,6 +273,37 @@ TEST(EvalCommand, FeetBothAddsLockedRowsThatKeepTheCapturesSkating) {
   EXPECT_GT(worse_off, 0) << "auto alone keeps the feet planted: the check would be vacuous";
   EXPECT_NE(test::read_text(out.path() / "table.md").find("Feet per clip, auto vs auto+feet"),
             std::string::npos);
+}
+
+// The guard (engine/clip/motion_guard.hpp) as eval runs it: on captures with no noise added, at
+// 30 fps where the noise estimate takes fast motion for noise, auto with its lock never leaves
+// more jitter or skating than the capture had, and some clip needed the fallback to get there;
+// on noisy ones the filter removes more than it adds, so no clip falls back.
+TEST(EvalCommand, GuardKeepsCleanCapturesAndLeavesNoisyOnesToTheFilter) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  test::TempDir out("eval-guard");
+  const auto r =
+      test::run_cli("eval '" + test::shared_bvh_dir().string() + "' -o '" + out.path().string() +
+                    "' --noise gaussian:0 --noise gaussian:0.03 --methods auto --pops on "
+                    "--feet lock --frame-step 4 --no-plots");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(test::read_text(out.path() / "report.json"));
+  ASSERT_EQ(report["methods"].size(), 1u);
+  const auto& results = report["methods"][0]["automatic"]["results"];
+  int fell_back = 0;
+  for (std::size_t k = 0; k < report["clips"].size(); ++k) {
+    const auto& clip = report["clips"][k];
+    const auto& clean = results[0]["clips"][k];
+    EXPECT_LE(clean["jitter_mm"].get<double>(), clip["clean_jitter_mm"].get<double>() * (1 + 1e-9))
+        << clean["clip"];
+    EXPECT_LE(clean["foot_skating_mm"].get<double>(),
+              clip["clean_foot_skating_mm"].get<double>() * (1 + 1e-9))
+        << clean["clip"];
+    fell_back += clean["resolved"]["kept"] != "filter+lock";
+    EXPECT_EQ(results[1]["clips"][k]["resolved"]["kept"], "filter+lock")
+        << results[1]["clips"][k]["clip"];
+  }
+  EXPECT_GT(fell_back, 0) << "no clean clip needed the guard: the check would be vacuous";
 }
 
 TEST(EvalSpec, GridsAreCartesianProductsAndAlternativesReplaceEachOther) {

@@ -1,0 +1,58 @@
+#pragma once
+// "Never makes a capture worse", checked on what a viewer sees and what can be measured without
+// ground truth (README "Never worse"): the joint positions' jitter and the feet's skating over
+// the input's contacts (engine/clip/motion_check.hpp). After --method auto's filter and the foot
+// lock, a clip that comes out with more jitter or more skating than the clip as read falls back
+// to the first of these that raises neither:
+//   filtered and locked -> filtered -> input (pops repaired) locked -> input (pops repaired)
+//   -> the clip as read (which raises nothing by definition).
+// Both are measured inside the resolved segments, as eval scores them.
+// Why it is needed: below 60 fps the noise estimate of a clean capture (0.003-0.010 rad on the
+// shared clips at 30 fps) overlaps that of 0.008 rad of added noise (0.009-0.012), so the rule
+// cannot tell a clean fast clip from a noisy one, and bof's range weights, which change with the
+// motion's speed, add jitter to clean motion (1.04-1.19x); pinning a clean capture's feet moves
+// its legs (jitter up to 1.09x). On a noisy capture the filter removes far more jitter than its
+// range weights can add, so the guard keeps it: it only ever acts where the input was already
+// smooth.
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "core/clip.hpp"
+#include "core/status.hpp"
+#include "engine/clip/foot_stage.hpp"
+#include "engine/clip/motion_check.hpp"
+#include "kernels/motion_split.hpp"
+
+namespace mocap::engine {
+
+// What the clip kept, in the guard's order of preference.
+enum class Kept : std::uint8_t { filtered_locked, filtered, input_locked, input, as_read };
+std::string_view to_string(Kept kept);
+
+// True when `after` has more jitter or more foot skating than `before` (both measured over the
+// same contacts: measure_motion(after_clip, &before)).
+bool raises_motion(const MotionMeasure& after, const MotionMeasure& before);
+
+struct MotionGuardJob {
+  // Inputs.
+  const Clip* input = nullptr;  // the clip after the pop stage, before the filter
+  const Clip* raw = nullptr;    // the clip as read; nullptr: the input is the last resort
+  // The clip as read, measure_motion(raw, nullptr, *segments): contacts included.
+  const MotionMeasure* before = nullptr;
+  const std::vector<Segment>* segments = nullptr;  // resolved segments (may be empty)
+  ClipFeet* feet = nullptr;  // contacts found on `input`; nullptr: no foot lock
+  bool guard = true;         // false: filtered (and locked) whatever it measures
+  // In and out: the filtered clip; replaced by the candidate kept.
+  Clip* output = nullptr;
+  // Outputs.
+  Kept kept = Kept::filtered_locked;
+  MotionMeasure after;  // of the clip kept
+
+  Status validate() const;
+  // Locks (when `feet`), measures, and falls back as the header says. `feet` ends as locked for
+  // the candidate kept (or with `locked` false and no stats when it kept an unlocked one).
+  Status run();
+};
+
+}  // namespace mocap::engine

@@ -1,0 +1,154 @@
+// The guard after auto's filter (engine/clip/motion_guard.hpp): a clip that came out with more
+// jitter or skating than it went in with falls back, in order, to the filter without the lock,
+// the input locked, the input, the clip as read; a clip the filter improved is left alone.
+// The "filters" here are stand-ins with a known effect (noise added, noise removed), so each
+// branch is reached on purpose; the demo library's 120 fps walk has legs and contacts.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "engine/clip/foot_stage.hpp"
+#include "engine/clip/motion_check.hpp"
+#include "engine/clip/motion_guard.hpp"
+#include "engine/library/demo_library.hpp"
+#include "kernels/noise_model.hpp"
+
+namespace mocap {
+namespace {
+
+using engine::Kept;
+using engine::MotionGuardJob;
+using engine::MotionMeasure;
+
+Clip walk() {
+  return engine::make_demo_library()[0].clip;
+}
+
+Clip with_noise(Clip clip, double sigma, std::uint64_t seed) {
+  add_noise(GaussianNoise{sigma, seed}, clip.rotation_span());
+  return clip;
+}
+
+struct Guarded {
+  Kept kept;
+  Clip output;
+  MotionMeasure before, after;
+  bool locked = false;
+};
+
+Guarded guard(const Clip& raw, const Clip& input, Clip output, bool lock, bool on = true) {
+  const std::vector<Segment> segments;
+  Guarded r;
+  r.before = engine::measure_motion(raw, nullptr, segments);
+  engine::ClipFeet feet = engine::detect_feet(input);
+  MotionGuardJob g;
+  g.input = &input;
+  g.raw = &raw;
+  g.before = &r.before;
+  g.segments = &segments;
+  g.feet = lock ? &feet : nullptr;
+  g.guard = on;
+  g.output = &output;
+  EXPECT_TRUE(g.run().ok());
+  r.kept = g.kept;
+  r.after = g.after;
+  r.output = std::move(output);
+  r.locked = feet.locked;
+  return r;
+}
+
+TEST(MotionGuard, TheWalkHasFeetToLock) {
+  const Clip clip = walk();
+  const engine::ClipFeet feet = engine::detect_feet(clip);
+  ASSERT_FALSE(feet.legs.empty());
+  std::size_t contacts = 0;
+  for (const auto& c : feet.contacts) contacts += c.size();
+  EXPECT_GT(contacts, 0u) << "no contact: the locked branches below would be vacuous";
+}
+
+TEST(MotionGuard, AFilterThatRemovesNoiseIsKept) {
+  const Clip clean = walk();
+  const Clip noisy = with_noise(clean, 0.03, 1);
+  for (bool lock : {false, true}) {
+    const Guarded r = guard(noisy, noisy, clean, lock);
+    EXPECT_EQ(r.kept, lock ? Kept::filtered_locked : Kept::filtered) << lock;
+    EXPECT_LT(r.after.jitter, r.before.jitter);
+    EXPECT_EQ(r.locked, lock);
+    if (!lock) {
+      EXPECT_EQ(r.output.rotations, clean.rotations);
+    }
+  }
+}
+
+TEST(MotionGuard, AFilterThatAddsJitterToACleanCaptureFallsBackToTheInput) {
+  const Clip clean = walk();
+  const Guarded r = guard(clean, clean, with_noise(clean, 0.01, 2), /*lock=*/false);
+  EXPECT_EQ(r.kept, Kept::input);
+  EXPECT_EQ(r.output.rotations, clean.rotations);
+  EXPECT_EQ(r.output.translations, clean.translations);
+  EXPECT_EQ(r.after.jitter, r.before.jitter);
+  EXPECT_EQ(r.after.skating, r.before.skating);
+}
+
+TEST(MotionGuard, WithTheLockEveryCandidateIsMeasuredAndNoneRaisesTheInputs) {
+  const Clip clean = walk();
+  const Guarded r = guard(clean, clean, with_noise(clean, 0.01, 3), /*lock=*/true);
+  EXPECT_NE(r.kept, Kept::filtered_locked);
+  EXPECT_NE(r.kept, Kept::filtered);
+  EXPECT_FALSE(engine::raises_motion(r.after, r.before));
+  EXPECT_EQ(r.locked, r.kept == Kept::input_locked);
+}
+
+TEST(MotionGuard, AnInputTheConditioningMadeWorseFallsBackToTheClipAsRead) {
+  const Clip raw = walk();
+  const Clip worse_input = with_noise(raw, 0.01, 4);  // a pop stage that added jitter
+  const Guarded r = guard(raw, worse_input, with_noise(raw, 0.02, 5), /*lock=*/false);
+  EXPECT_EQ(r.kept, Kept::as_read);
+  EXPECT_EQ(r.output.rotations, raw.rotations);
+}
+
+TEST(MotionGuard, OffKeepsTheFilterWhateverItMeasures) {
+  const Clip clean = walk();
+  const Clip rough = with_noise(clean, 0.01, 6);
+  const Guarded r = guard(clean, clean, rough, /*lock=*/false, /*on=*/false);
+  EXPECT_EQ(r.kept, Kept::filtered);
+  EXPECT_EQ(r.output.rotations, rough.rotations);
+  EXPECT_TRUE(engine::raises_motion(r.after, r.before));
+}
+
+TEST(MotionGuard, ClipsOfDifferentShapesAreRefused) {
+  const Clip clean = walk();
+  Clip shorter = clean;
+  shorter.frames -= 1;
+  shorter.rotations.resize(shorter.rotations.size() - std::size_t(clean.joints()) * 4);
+  shorter.translations.resize(shorter.translations.size() - std::size_t(clean.joints()) * 3);
+  const std::vector<Segment> segments;
+  const MotionMeasure before = engine::measure_motion(clean);
+  MotionGuardJob g;
+  g.input = &clean;
+  g.before = &before;
+  g.segments = &segments;
+  g.output = &shorter;
+  const Status s = g.run();
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.message().find("not the same clip"), std::string::npos) << s.message();
+}
+
+TEST(MotionGuard, SegmentsLeaveImpossibleStepsOutOfTheMeasure) {
+  Clip clip = walk();
+  const int J = clip.joints(), mid = clip.frames / 2;
+  // A jump on one frame, as CMU's T-pose frame: between two segments it is not motion.
+  for (int j = 0; j < J; ++j) {
+    float* q = &clip.rotations[(std::size_t(mid) * std::size_t(J) + std::size_t(j)) * 4];
+    q[0] = 1, q[1] = q[2] = q[3] = 0;
+  }
+  const std::vector<Segment> split{{0, mid}, {mid, mid + 1}, {mid + 1, clip.frames}};
+  const MotionMeasure whole = engine::measure_motion(clip);
+  const MotionMeasure parts = engine::measure_motion(clip, nullptr, split);
+  const MotionMeasure smooth = engine::measure_motion(walk(), nullptr, split);
+  EXPECT_GT(whole.jitter, 3 * parts.jitter);
+  EXPECT_NEAR(parts.jitter, smooth.jitter, 1e-9 * smooth.jitter);
+}
+
+}  // namespace
+}  // namespace mocap
