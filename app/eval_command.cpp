@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "app/cli_checks.hpp"
+#include "engine/clip/methods.hpp"
 #include "engine/eval/eval_plots.hpp"
 #include "engine/eval/eval_report.hpp"
 #include "engine/eval/eval_run.hpp"
@@ -113,11 +114,25 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
                   "noise conditions, repeatable: gaussian:S1,S2,... (rad) or impulse[:RATE[,MIN,"
                   "MAX]]\n(default: gaussian:0.008,0.03,0.12 and impulse)")
       ->group("Evaluation");
-  cmd->add_option("--methods", command.methods,
-                  "comma-separated: bof, nlpm, gaussian, butterworth, moving-mean, kalman,\n"
-                  "nlpm-robust (nlpm with the per-joint range term), auto (--method auto)")
-      ->capture_default_str()
-      ->group("Evaluation");
+  // Every method of the table by default; the help names them, wrapped as CLI11 does not.
+  if (command.methods.empty()) command.methods = all_eval_methods();
+  std::string help = "comma-separated:";
+  std::size_t line = help.size();
+  for (const EvalVariant& v : eval_variants()) {
+    std::string item(v.name);
+    if (!v.note.empty()) item += " (" + std::string(v.note) + ")";
+    item += &v == &eval_variants().back() ? "" : ",";
+    if (line + 1 + item.size() > 72) {
+      help += "\n";
+      line = 0;
+    } else {
+      help += " ";
+      ++line;
+    }
+    help += item;
+    line += item.size();
+  }
+  cmd->add_option("--methods", command.methods, help)->capture_default_str()->group("Evaluation");
   cmd->add_option("--pops", command.pops,
                   "off: each method is the spec's filter on the noisy clip; on: after the "
                   "engine's default pop stage, --pops auto (rows METHOD+pops; garbage joints "
@@ -180,6 +195,13 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
   return cmd;
 }
 
+std::string all_eval_methods() {
+  std::string names;
+  for (const EvalVariant& v : eval_variants())
+    names += (names.empty() ? "" : ",") + std::string(v.name);
+  return names;
+}
+
 int run_eval(const EvalCommand& command) {
   const auto start = std::chrono::steady_clock::now();
   EvalConfig config;
@@ -197,9 +219,10 @@ int run_eval(const EvalCommand& command) {
     config.conditions.insert(config.conditions.end(), parsed.begin(), parsed.end());
   }
   std::vector<EvalMethod> methods;
-  for (std::size_t pos = 0; pos <= command.methods.size();) {
-    const std::size_t comma = std::min(command.methods.find(',', pos), command.methods.size());
-    const std::string name = command.methods.substr(pos, comma - pos);
+  const std::string names = command.methods.empty() ? all_eval_methods() : command.methods;
+  for (std::size_t pos = 0; pos <= names.size();) {
+    const std::size_t comma = std::min(names.find(',', pos), names.size());
+    const std::string name = names.substr(pos, comma - pos);
     const auto m = parse_eval_method(name);
     if (!m) return usage_error("unknown method '" + name + "' in --methods");
     if (std::find(methods.begin(), methods.end(), *m) == methods.end()) methods.push_back(*m);

@@ -15,11 +15,11 @@ struct EvalCommand {
   std::vector<std::string> sources;  // BVH files, folders, or library files (.h5)
   std::string output_dir;
   std::vector<std::string> noise;  // --noise specs; empty = the defaults
-  std::string methods = "bof,nlpm,gaussian,butterworth,moving-mean,kalman,nlpm-robust,auto";
-  std::string pops = "both";      // off: the spec filters; on: after the pop stage; both
-  std::string feet = "off";       // off, lock, both (eval_spec.hpp, apply_feet_mode)
-  std::string guard = "on";       // auto's runs end with the engine's guard, as clean's do
-  std::vector<std::string> grid;  // --grid METHOD.PARAM=v1,v2
+  std::string methods;             // empty: every method of the table (engine/clip/methods.hpp)
+  std::string pops = "both";       // off: the spec filters; on: after the pop stage; both
+  std::string feet = "off";        // off, lock, both (eval_spec.hpp, apply_feet_mode)
+  std::string guard = "on";        // auto's runs end with the engine's guard, as clean's do
+  std::vector<std::string> grid;   // --grid METHOD.PARAM=v1,v2
   unsigned long long seed = 1;
   double unit_cm = 0;  // 0 = guess per clip
   bool split_impossible = true;
@@ -33,5 +33,7 @@ struct EvalCommand {
 // Registers the `eval` subcommand and its options on `app`.
 CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command);
 int run_eval(const EvalCommand& command);
+// Every eval method of the table (engine/clip/methods.hpp), comma-separated: --methods' default.
+std::string all_eval_methods();
 
 }  // namespace mocap::engine

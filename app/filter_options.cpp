@@ -6,117 +6,84 @@
 #include <string>
 
 #include "core/quaternion.hpp"
+#include "engine/clip/methods.hpp"
 
 namespace mocap::engine {
 
+namespace {
+
+// Every method option once (engine/clip/methods.hpp: the first declaration of a shared one), in
+// the order --help lists them: the methods' own, then those of every method (--boundary).
+std::vector<const MethodOption*> distinct_options() {
+  std::vector<const MethodOption*> own, shared;
+  auto listed = [&](const MethodOption& o) {
+    for (const auto* list : {&own, &shared})
+      for (const MethodOption* p : *list)
+        if (p->long_name() == o.long_name()) return true;
+    return false;
+  };
+  for (const MethodEntry& e : method_entries())
+    for (const MethodOption& o : e.options)
+      if (!listed(o)) (o.after_methods ? shared : own).push_back(&o);
+  own.insert(own.end(), shared.begin(), shared.end());
+  return own;
+}
+
+}  // namespace
+
+FilterOptions::FilterOptions() {
+  for (const MethodOption* o : distinct_options()) {
+    const std::string name(o->long_name());
+    if (o->type == MethodOption::Type::real) numbers[name] = o->default_number;
+    if (o->type == MethodOption::Type::integer) integers[name] = int(o->default_number);
+    if (o->type == MethodOption::Type::word) words[name] = std::string(o->default_word);
+  }
+}
+
+double FilterOptions::number(std::string_view name) const {
+  return numbers.find(name)->second;
+}
+int FilterOptions::integer(std::string_view name) const {
+  return integers.find(name)->second;
+}
+const std::string& FilterOptions::word(std::string_view name) const {
+  return words.find(name)->second;
+}
+
 void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
   method = default_method;
-  cmd.add_option("--method,-m", method,
-                 "bof: bilateral orientation filter (Courty 2008): smooths jitter, keeps edges\n"
-                 "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses\n"
-                 "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)\n"
-                 "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline\n"
-                 "auto: the method and its parameters chosen per clip from its measured noise\n"
-                 "none: copy (checks the round trip)")
-      ->transform(CLI::IsMember(
-          {"none", "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "auto"},
-          CLI::ignore_case))
+  // --method: the table's names, and one help line per method (none, which copies, last).
+  std::vector<std::string> names;
+  std::string help, none_help;
+  for (const MethodEntry& e : method_entries()) {
+    names.emplace_back(e.name);
+    if (e.method == Method::none)
+      none_help = e.help;
+    else if (!e.help.empty())
+      help += std::string(e.help) + "\n";
+  }
+  cmd.add_option("--method,-m", method, help + none_help)
+      ->transform(CLI::IsMember(names, CLI::ignore_case))
       ->capture_default_str()
       ->group("Filter");
-  cmd.add_option("--sigma-t", sigma_t,
-                 "bof, gaussian: temporal width in frames (bof: 0 = automatic, from the noise)")
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--window,-k", window,
-                 "bof, gaussian: half-width k in frames (0 = ceil(3 sigma_t))")
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--sigma-g", sigma_g,
-                 "bof: range width, full rotation angle, in rad or e.g. 10deg (0 = automatic, from "
-                 "the noise)")
-      ->transform(kAngle)
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--iterations", iterations,
-                 "bof: how many times the filter runs on its own output")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--kernel", kernel,
-                 "bof: gaussian, or paper (Courty's printed kernel, for comparison)")
-      ->check(CLI::IsMember({"gaussian", "paper"}))
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--sigma-p", sigma_p,
-                 "bof: range width for translations in the file's length unit (0 = none: Gaussian)")
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--search-radius,-K", search_radius, "nlpm: search window K (2K+1 poses)")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--patch-radius,-P", patch_radius, "nlpm: patch radius P (2P+1 poses)")
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--h", h,
-                 "nlpm: strength in rad or e.g. 2deg (0 = automatic, from the estimated noise)")
-      ->transform(kAngle)
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--space", space, "nlpm: tangent (default), or log (the paper, literally)")
-      ->check(CLI::IsMember({"tangent", "log"}))
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--nlpm-range", nlpm_range,
-                 "nlpm: per-joint range term, off (the spec's nlpm), auto (5 x the estimated "
-                 "noise) or a width in rad or e.g. 10deg: a joint that disagrees cannot drag the "
-                 "others")
-      ->transform(kAngle)
-      ->check([](const std::string& v) -> std::string {
-        if (v == "off" || v == "auto") return "";
-        const std::optional<double> x = finite_number(v);
-        return x && *x > 0 ? "" : "expected off, auto or a positive width in radians, got " + v;
-      })
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--translation-sigma-t", translation_sigma_t,
-                 "nlpm: Gaussian width in frames for the position channels (pose weights do not "
-                 "follow a trajectory), auto (from the estimated position noise) or 0 (keep)")
-      ->check([](const std::string& v) -> std::string {
-        if (v == "auto") return "";
-        const std::optional<double> x = finite_number(v);
-        return x && *x >= 0 ? "" : "expected auto or a width in frames >= 0, got " + v;
-      })
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--order", order, "butterworth: filter order n")
-      ->check(CLI::Range(1, 8))
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--cutoff", cutoff, "butterworth: single-pass -3 dB cut-off in Hz")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--passes", passes, "moving-mean: passes of Blender's Smooth Keys mask")
-      ->check(kPositive)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--kalman-lambda", kalman_lambda,
-                 "kalman: process over measurement noise q/r (0 = automatic, from the noise)")
-      ->check(kNonNegative)
-      ->capture_default_str()
-      ->group("Filter");
-  cmd.add_option("--boundary", boundary,
-                 "samples beyond the clip's ends: mirror, hold, extrapolate")
-      ->check(CLI::IsMember({"mirror", "hold", "extrapolate"}))
-      ->capture_default_str()
-      ->group("Filter");
+  for (const MethodOption* o : distinct_options()) {
+    const std::string name(o->long_name());
+    CLI::Option* option =
+        o->type == MethodOption::Type::real
+            ? cmd.add_option(std::string(o->flags), numbers[name], std::string(o->help))
+        : o->type == MethodOption::Type::integer
+            ? cmd.add_option(std::string(o->flags), integers[name], std::string(o->help))
+            : cmd.add_option(std::string(o->flags), words[name], std::string(o->help));
+    if (o->angle) option->transform(kAngle);
+    if (o->check == MethodOption::Check::non_negative) option->check(kNonNegative);
+    if (o->check == MethodOption::Check::positive) option->check(kPositive);
+    if (o->check == MethodOption::Check::range) option->check(CLI::Range(o->min, o->max));
+    if (!o->choices.empty())
+      option->check(CLI::IsMember(std::vector<std::string>(o->choices.begin(), o->choices.end())));
+    if (o->check_word)
+      option->check([check = o->check_word](const std::string& v) { return check(v); });
+    option->capture_default_str()->group("Filter");
+  }
   cmd.add_option("--pops", pops,
                  "before the filter: repair pops (samples that jump away and come back) by "
                  "slerp; detect: only count them; auto: repair at 60 fps and more, only count "
@@ -174,27 +141,16 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
 FilterSettings FilterOptions::settings() const {
   FilterSettings s;
   s.method = parse_method(method).value_or(Method::none);
-  const Boundary b = parse_boundary(boundary).value_or(Boundary::mirror);
-  s.bilateral.sigma_t = sigma_t;
-  s.bilateral.sigma_g = sigma_g;
-  s.bilateral.window = window;
-  s.bilateral.iterations = iterations;
-  s.bilateral.kernel = kernel == "paper" ? BilateralKernel::paper : BilateralKernel::gaussian;
-  s.bilateral.boundary = b;
-  s.bilateral.sigma_p = sigma_p > 0 ? sigma_p : std::numeric_limits<double>::infinity();
-  s.linear.sigma_t = sigma_t;
-  s.linear.window = window;
-  s.linear.order = order;
-  s.linear.cutoff = cutoff;
-  s.linear.passes = passes;
-  s.linear.boundary = b;
-  s.nlpm.search_radius = search_radius;
-  s.nlpm.patch_radius = patch_radius;
-  s.nlpm.h = h;
-  s.nlpm.space = space == "log" ? NlpmSpace::log : NlpmSpace::tangent;
-  s.nlpm.boundary = b;
-  s.kalman.lambda = kalman_lambda;
-  s.kalman.boundary = b;
+  // Every method's parameters, whatever the method: auto's choice reads them (the boundary).
+  for (const MethodEntry& e : method_entries())
+    for (const MethodOption& o : e.options) {
+      const std::string_view name = o.long_name();
+      o.apply(s,
+              o.type == MethodOption::Type::real      ? number(name)
+              : o.type == MethodOption::Type::integer ? double(integer(name))
+                                                      : 0.0,
+              o.type == MethodOption::Type::word ? word(name) : std::string());
+    }
   s.filter_translations = translations == "filter";
   // A named method is the spec's filter unless a pop stage is asked for; `auto` cleans fully.
   const PopsMode method_default =
@@ -204,11 +160,8 @@ FilterSettings FilterOptions::settings() const {
   // On by default where the engine chooses anyway (auto): CMU's T-pose frame 0 stays a T-pose.
   s.split_impossible =
       split_impossible_on || (!split_impossible_off && s.method == Method::automatic);
-  s.nlpm.translation_sigma_t =
-      translation_sigma_t == "auto" ? kAutomaticTranslationSigma : std::stod(translation_sigma_t);
   s.lock_feet = feet.empty() ? s.method == Method::automatic : feet == "lock";
   s.guard_motion = guard.empty() ? s.method == Method::automatic : guard == "on";
-  s.nlpm_range = nlpm_range == "off" ? 0.0 : nlpm_range == "auto" ? -1.0 : std::stod(nlpm_range);
   s.shard_joints = shard_joints;
   s.shard_frames = shard_frames;
   return s;
@@ -219,17 +172,17 @@ std::vector<std::string> FilterOptions::warnings() const {
   // without "deg" (a bof range of pi/2 already treats every step as jitter).
   constexpr double kRadiansPerDegree = kPi / 180.0;
   std::vector<std::string> out;
-  auto check = [&](const char* name, double value, double limit, const char* why) {
-    if (value > limit)
+  for (const MethodOption* o : distinct_options()) {
+    if (!(o->implausible_above > 0)) continue;
+    const std::string name(o->long_name());
+    const std::optional<double> value = o->type == MethodOption::Type::real
+                                            ? std::optional(number(name))
+                                            : finite_number(word(name));  // off, auto: none
+    if (value && *value > o->implausible_above)
       out.push_back(
-          fmt::format("{} {:g} rad ({:.4g} deg) is implausible: {}; for degrees write "
-                      "{:g}deg",
-                      name, value, value / kRadiansPerDegree, why, value));
-  };
-  check("--sigma-g", sigma_g, kPi / 2, "steps smaller than it are smoothed as jitter");
-  check("--h", h, kPi / 2, "every pose counts as similar to every other");
-  if (nlpm_range != "off" && nlpm_range != "auto")
-    check("--nlpm-range", std::stod(nlpm_range), kPi, "no joint can disagree by more than pi");
+          fmt::format("--{} {:g} rad ({:.4g} deg) is implausible: {}; for degrees write {:g}deg",
+                      name, *value, *value / kRadiansPerDegree, o->implausible_why, *value));
+  }
   return out;
 }
 

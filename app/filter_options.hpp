@@ -1,7 +1,9 @@
 #pragma once
 // The filter parameters of the spec as command-line options, shared by clean, filter and eval.
 #include <CLI/CLI.hpp>
+#include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "app/cli_checks.hpp"
@@ -11,15 +13,19 @@
 namespace mocap::engine {
 
 struct FilterOptions {
+  FilterOptions();  // the methods' parameters at their defaults
   std::string method = "none";
+  std::string translations = "filter";
   // Empty: the method's default (auto for --method auto, else off).
-  std::string kernel = "gaussian", boundary = "mirror", space = "tangent", translations = "filter";
-  std::string pops, garbage_joints = "keep", nlpm_range = "off", translation_sigma_t = "auto";
+  std::string pops, garbage_joints = "keep";
   std::string feet;   // empty: lock for --method auto, else off
   std::string guard;  // empty: on for --method auto, else off
-  double sigma_t = 1.0, sigma_g = 0.2, h = 0, cutoff = 6.0, sigma_p = 0, kalman_lambda = 0;
-  int window = 0, iterations = 5, search_radius = 10, patch_radius = 5, order = 2, passes = 5;
   int shard_joints = 8, shard_frames = 256;
+  // The methods' own options (engine/clip/methods.hpp, MethodEntry::options), by long name
+  // without the dashes ("sigma-t"): one map per type, so CLI11 writes into them.
+  std::map<std::string, double, std::less<>> numbers;
+  std::map<std::string, int, std::less<>> integers;
+  std::map<std::string, std::string, std::less<>> words;
   // --split-impossible / --no-split-impossible; neither: on with --method auto only.
   bool split_impossible_on = false, split_impossible_off = false;
 
@@ -29,6 +35,10 @@ struct FilterOptions {
   FilterSettings settings() const;
   // Values that parse but are almost surely a mistake (degrees given as radians), to print.
   std::vector<std::string> warnings() const;
+  // A method option's value (its default until parsed): numbers.at("sigma-t") and so on.
+  double number(std::string_view name) const;
+  int integer(std::string_view name) const;
+  const std::string& word(std::string_view name) const;
 };
 
 // The options of every command that runs the engine (--threads, --json, --no-progress).

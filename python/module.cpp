@@ -409,13 +409,13 @@ void assign_tensor(Clip& clip, std::vector<float>& target, py::handle value, int
     translations, frame_time, scalar_first, boundary, pops, garbage_joints, split_impossible, \
         translation_mode, shard_joints, shard_frames, threads, return_info                    \
   }
-#define MOCAP_COMMON_ARGS                                                                         \
-  py::arg("translations") = py::none(), py::arg("frame_time") = py::none(),                       \
-  py::arg("scalar_first") = true, py::arg("boundary") = d.boundary, py::arg("pops") = py::none(), \
-  py::arg("garbage_joints") = d.garbage_joints, py::arg("split_impossible") = py::none(),         \
-  py::arg("translation_mode") = d.translations, py::arg("shard_joints") = d.shard_joints,         \
-  py::arg("shard_frames") = d.shard_frames, py::arg("threads") = run.threads,                     \
-  py::arg("return_info") = false
+#define MOCAP_COMMON_ARGS                                                                 \
+  py::arg("translations") = py::none(), py::arg("frame_time") = py::none(),               \
+  py::arg("scalar_first") = true, py::arg("boundary") = d.word("boundary"),               \
+  py::arg("pops") = py::none(), py::arg("garbage_joints") = d.garbage_joints,             \
+  py::arg("split_impossible") = py::none(), py::arg("translation_mode") = d.translations, \
+  py::arg("shard_joints") = d.shard_joints, py::arg("shard_frames") = d.shard_frames,     \
+  py::arg("threads") = run.threads, py::arg("return_info") = false
 
 constexpr const char* kCommonDoc = R"(
 
@@ -677,10 +677,10 @@ PYBIND11_MODULE(mocap_clean, m) {
                            {"sigma-p", number(sigma_p)}},
                           MOCAP_COMMON_VALUES);
       },
-      py::arg("data"), py::kw_only(), py::arg("sigma_t") = d.sigma_t,
-      py::arg("sigma_g") = d.sigma_g, py::arg("window") = d.window,
-      py::arg("iterations") = d.iterations, py::arg("kernel") = d.kernel,
-      py::arg("sigma_p") = d.sigma_p, MOCAP_COMMON_ARGS,
+      py::arg("data"), py::kw_only(), py::arg("sigma_t") = d.number("sigma-t"),
+      py::arg("sigma_g") = d.number("sigma-g"), py::arg("window") = d.integer("window"),
+      py::arg("iterations") = d.integer("iterations"), py::arg("kernel") = d.word("kernel"),
+      py::arg("sigma_p") = d.number("sigma-p"), MOCAP_COMMON_ARGS,
       doc("Bilateral orientation filter (Courty 2008), `--method bof`.\n\n"
           "sigma_t: temporal width in frames, 0 = automatic from the noise (--sigma-t).\n"
           "sigma_g: range width in rad, full rotation angle, 0 = automatic (--sigma-g).\n"
@@ -704,9 +704,10 @@ PYBIND11_MODULE(mocap_clean, m) {
                            {"nlpm-range", range}},
                           MOCAP_COMMON_VALUES);
       },
-      py::arg("data"), py::kw_only(), py::arg("search_radius") = d.search_radius,
-      py::arg("patch_radius") = d.patch_radius, py::arg("h") = d.h, py::arg("space") = d.space,
-      py::arg("nlpm_range") = d.nlpm_range, MOCAP_COMMON_ARGS,
+      py::arg("data"), py::kw_only(), py::arg("search_radius") = d.integer("search-radius"),
+      py::arg("patch_radius") = d.integer("patch-radius"), py::arg("h") = d.number("h"),
+      py::arg("space") = d.word("space"), py::arg("nlpm_range") = d.word("nlpm-range"),
+      MOCAP_COMMON_ARGS,
       doc("Non-local pose means (Dean & Lewis 2017), `--method nlpm`.\n\n"
           "search_radius: K, 2K+1 poses searched (--search-radius).\n"
           "patch_radius: P, 2P+1 poses compared (--patch-radius).\n"
@@ -722,8 +723,8 @@ PYBIND11_MODULE(mocap_clean, m) {
                           {{"sigma-t", number(sigma_t)}, {"window", std::to_string(window)}},
                           MOCAP_COMMON_VALUES);
       },
-      py::arg("data"), py::kw_only(), py::arg("sigma_t") = d.sigma_t, py::arg("window") = d.window,
-      MOCAP_COMMON_ARGS,
+      py::arg("data"), py::kw_only(), py::arg("sigma_t") = d.number("sigma-t"),
+      py::arg("window") = d.integer("window"), MOCAP_COMMON_ARGS,
       doc("Gaussian linear filter (Lee-Shin construction), `--method gaussian`.\n\n"
           "sigma_t: width in frames (--sigma-t).\n"
           "window: half-width k, 0 = ceil(3 sigma_t) (--window).")
@@ -736,8 +737,8 @@ PYBIND11_MODULE(mocap_clean, m) {
                           {{"order", std::to_string(order)}, {"cutoff", number(cutoff)}},
                           MOCAP_COMMON_VALUES);
       },
-      py::arg("data"), py::kw_only(), py::arg("order") = d.order, py::arg("cutoff") = d.cutoff,
-      MOCAP_COMMON_ARGS,
+      py::arg("data"), py::kw_only(), py::arg("order") = d.integer("order"),
+      py::arg("cutoff") = d.number("cutoff"), MOCAP_COMMON_ARGS,
       doc("Butterworth low-pass (Lee-Shin construction), `--method butterworth`.\n\n"
           "order: filter order n, 1..8 (--order).\n"
           "cutoff: single-pass -3 dB cut-off in Hz (--cutoff).")
@@ -749,7 +750,7 @@ PYBIND11_MODULE(mocap_clean, m) {
         return run_filter("moving-mean", data, {{"passes", std::to_string(passes)}},
                           MOCAP_COMMON_VALUES);
       },
-      py::arg("data"), py::kw_only(), py::arg("passes") = d.passes, MOCAP_COMMON_ARGS,
+      py::arg("data"), py::kw_only(), py::arg("passes") = d.integer("passes"), MOCAP_COMMON_ARGS,
       doc("Moving mean (Blender's Smooth Keys mask), `--method moving-mean`.\n\n"
           "passes: passes of the mask (--passes).")
           .c_str());
@@ -760,7 +761,8 @@ PYBIND11_MODULE(mocap_clean, m) {
         return run_filter("kalman", data, {{"kalman-lambda", number(kalman_lambda)}},
                           MOCAP_COMMON_VALUES);
       },
-      py::arg("data"), py::kw_only(), py::arg("kalman_lambda") = d.kalman_lambda, MOCAP_COMMON_ARGS,
+      py::arg("data"), py::kw_only(), py::arg("kalman_lambda") = d.number("kalman-lambda"),
+      MOCAP_COMMON_ARGS,
       doc("Constant-velocity RTS smoother (Lee-Shin), `--method kalman`.\n\n"
           "kalman_lambda: process over measurement noise q/r, 0 = automatic (--kalman-lambda).")
           .c_str());

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <optional>
 
+#include "engine/clip/methods.hpp"
 #include "kernels/foot_contacts.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/motion_split.hpp"
@@ -12,15 +13,8 @@
 namespace mocap::engine {
 
 std::optional<Method> parse_method(std::string_view name) {
-  if (name == "none") return Method::none;
-  if (name == "bof") return Method::bof;
-  if (name == "nlpm") return Method::nlpm;
-  if (name == "gaussian") return Method::gaussian;
-  if (name == "butterworth") return Method::butterworth;
-  if (name == "moving-mean") return Method::moving_mean;
-  if (name == "kalman") return Method::kalman;
-  if (name == "auto") return Method::automatic;
-  return std::nullopt;
+  const MethodEntry* entry = find_method(name);
+  return entry ? std::optional(entry->method) : std::nullopt;
 }
 
 std::optional<PopsMode> parse_pops_mode(std::string_view name) {
@@ -46,36 +40,8 @@ std::string_view to_string(PopsMode mode) {
 }
 
 std::string_view to_string(Method method) {
-  switch (method) {
-    case Method::none:
-      return "none";
-    case Method::bof:
-      return "bof";
-    case Method::nlpm:
-      return "nlpm";
-    case Method::gaussian:
-      return "gaussian";
-    case Method::butterworth:
-      return "butterworth";
-    case Method::moving_mean:
-      return "moving-mean";
-    case Method::kalman:
-      return "kalman";
-    case Method::automatic:
-      return "auto";
-  }
-  return "?";
+  return method_entry(method).name;
 }
-
-namespace {
-
-LinearKind linear_kind(Method method) {
-  if (method == Method::butterworth) return LinearKind::butterworth;
-  if (method == Method::moving_mean) return LinearKind::moving_mean;
-  return LinearKind::gaussian;
-}
-
-}  // namespace
 
 double body_height(const Skeleton& skeleton) {
   std::vector<std::pair<int, Vec3>> sites;
@@ -157,30 +123,7 @@ Status FilterSettings::validate() const {
   if (shard_frames < 1) return Status::error("shard frames must be >= 1");
   if (!std::isfinite(nlpm_range))
     return Status::error("nlpm's range sigma must be finite (0 = off, < 0 = automatic)");
-  switch (method) {
-    case Method::none:
-    case Method::automatic:
-      return {};
-    case Method::bof: {
-      BilateralParams p = bilateral;
-      if (p.sigma_g == 0) p.sigma_g = 1;  // automatic: resolved per clip
-      if (p.sigma_t == 0) p.sigma_t = 1;
-      return p.validate();
-    }
-    case Method::kalman:
-      return kalman.validate();  // lambda 0: automatic, resolved per clip
-    case Method::nlpm: {
-      NlpmParams p = nlpm;
-      if (p.h == 0) p.h = 1;  // automatic: checked per clip
-      if (p.translation_sigma_t < 0) p.translation_sigma_t = 0;
-      return p.validate();
-    }
-    default: {
-      LinearParams p = linear;
-      p.kind = linear_kind(method);
-      return p.validate();
-    }
-  }
+  return method_entry(method).validate(*this);
 }
 
 nlohmann::json FilterSettings::to_json() const {
@@ -194,51 +137,7 @@ nlohmann::json FilterSettings::to_json() const {
     if (lock_feet) j["feet"] = "lock";
     if (guard_motion) j["guard"] = "on";
   }
-  switch (method) {
-    case Method::none:
-    case Method::automatic:
-      break;
-    case Method::bof:
-      j["sigma_t"] =
-          bilateral.sigma_t == 0 ? nlohmann::json("auto") : nlohmann::json(bilateral.sigma_t);
-      j["sigma_g"] =
-          bilateral.sigma_g == 0 ? nlohmann::json("auto") : nlohmann::json(bilateral.sigma_g);
-      j["window"] = bilateral.window;
-      j["iterations"] = bilateral.iterations;
-      j["kernel"] = bilateral.kernel == BilateralKernel::paper ? "paper" : "gaussian";
-      j["boundary"] = std::string(to_string(bilateral.boundary));
-      if (std::isfinite(bilateral.sigma_p)) j["sigma_p"] = bilateral.sigma_p;
-      break;
-    case Method::nlpm:
-      j["search_radius"] = nlpm.search_radius;
-      j["patch_radius"] = nlpm.patch_radius;
-      j["h"] = nlpm.h == 0 ? nlohmann::json("auto") : nlohmann::json(nlpm.h);
-      j["space"] = nlpm.space == NlpmSpace::log ? "log" : "tangent";
-      j["range_sigma"] = nlpm_range < 0 ? nlohmann::json("auto") : nlohmann::json(nlpm_range);
-      j["translation_sigma_t"] = nlpm.translation_sigma_t < 0
-                                     ? nlohmann::json("auto")
-                                     : nlohmann::json(nlpm.translation_sigma_t);
-      j["boundary"] = std::string(to_string(nlpm.boundary));
-      break;
-    case Method::gaussian:
-      j["sigma_t"] = linear.sigma_t;
-      j["window"] = linear.window;
-      j["boundary"] = std::string(to_string(linear.boundary));
-      break;
-    case Method::butterworth:
-      j["order"] = linear.order;
-      j["cutoff"] = linear.cutoff;
-      j["boundary"] = std::string(to_string(linear.boundary));
-      break;
-    case Method::moving_mean:
-      j["passes"] = linear.passes;
-      j["boundary"] = std::string(to_string(linear.boundary));
-      break;
-    case Method::kalman:
-      j["lambda"] = kalman.lambda == 0 ? nlohmann::json("auto") : nlohmann::json(kalman.lambda);
-      j["boundary"] = std::string(to_string(kalman.boundary));
-      break;
-  }
+  method_entry(method).to_json(*this, j);
   return j;
 }
 
@@ -254,7 +153,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
                                   std::span<const std::uint8_t> garbage) {
   ResolvedSettings r;
   r.settings = settings;
-  r.settings.linear.kind = linear_kind(settings.method);
+  const MethodEntry& asked = method_entry(settings.method);
+  if (asked.normalize) asked.normalize(r.settings);
   if (settings.method == Method::none || clip.frames < 2) {
     r.unchanged = true;
     return r;
@@ -271,20 +171,18 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
   // The position channels' noise, estimated once: auto's choice and nlpm's translation width
   // both read it.
   std::optional<TranslationNoise> translation_estimate;
-  auto translation_noise = [&] {
+  NoiseContext context;
+  context.frame_time = clip.frame_time;
+  context.body_height = body_height(*clip.skeleton);
+  context.translation_noise = [&] {
     if (!translation_estimate) {
       translation_estimate = estimate_translation_noise(
           clip.translation_view(), clip.skeleton->translated_mask(), clip.frame_time);
     }
+    r.translation_noise = *translation_estimate;
     return *translation_estimate;
   };
-  const Method asked = settings.method;
-  const bool automatic_nlpm =
-      asked == Method::nlpm && (settings.nlpm.h == 0 || settings.nlpm_range < 0);
-  const bool automatic_bof =
-      asked == Method::bof && (settings.bilateral.sigma_g == 0 || settings.bilateral.sigma_t == 0);
-  const bool automatic_kalman = asked == Method::kalman && settings.kalman.lambda == 0;
-  if (asked == Method::automatic || automatic_nlpm || automatic_bof || automatic_kalman) {
+  if (asked.needs_noise(settings)) {
     const NoiseEstimate noise = estimate_noise(
         clip.rotation_view(), any_garbage ? garbage : std::span<const std::uint8_t>{});
     r.noise_sigma = noise.sigma;
@@ -292,32 +190,12 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
       return r;
     }
-    if (asked == Method::automatic) {
-      r.translation_noise = translation_noise();
-      r.noisy_positions = has_noisy_positions(r.translation_noise, body_height(*clip.skeleton));
-      r.settings = choose_automatic(settings, noise.sigma, r.noisy_positions, clip.frame_time);
-    }
-    FilterSettings& s = r.settings;
-    s.linear.kind = linear_kind(s.method);
-    if (s.method == Method::nlpm) {
-      if (s.nlpm.h == 0) s.nlpm.h = kNlpmAutoFactor * noise.sigma;
-      if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * noise.sigma;
-      if (asked == Method::automatic) {
-        s.nlpm.h = std::max(s.nlpm.h, kAutoNlpmMinH);
-        s.nlpm_range = std::max(s.nlpm_range, kAutoNlpmMinRange);
-      }
-    }
-    if (s.method == Method::bof)
-      s.bilateral = automatic_bilateral(s.bilateral, noise.sigma, clip.frame_time);
-    if (s.method == Method::kalman && s.kalman.lambda == 0)
-      s.kalman.lambda = kalman_auto_lambda(noise.sigma, clip.frame_time);
+    context.sigma_hat = noise.sigma;
+    if (settings.method == Method::automatic)
+      r.noisy_positions = has_noisy_positions(context.translation_noise(), context.body_height);
   }
+  r.settings = resolve_parameters(r.settings, context, r.noisy_positions);
   r.settings.nlpm.range_sigma = std::max(0.0, r.settings.nlpm_range);
-  if (r.settings.method == Method::nlpm && r.settings.nlpm.translation_sigma_t < 0) {
-    r.translation_noise = translation_noise();
-    r.settings.nlpm.translation_sigma_t = automatic_translation_sigma_t(
-        r.translation_noise, clip.frame_time, body_height(*clip.skeleton));
-  }
   if (settings.split_impossible) {
     // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
     std::vector<std::uint8_t> flipping;

@@ -3,16 +3,13 @@
 #include <algorithm>
 #include <cstring>
 
-#include "kernels/bilateral.hpp"
-#include "kernels/kalman.hpp"
-#include "kernels/linear_filter.hpp"
-#include "kernels/nlpm.hpp"
+#include "engine/clip/methods.hpp"
 
 namespace mocap::engine {
 
 std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int joints) {
   std::vector<Shard> shards;
-  if (settings.method == Method::nlpm) {
+  if (method_entry(settings.method).shard_by_frames) {
     for (int f = 0; f < frames; f += settings.shard_frames)
       shards.push_back({0, joints, f, std::min(frames, f + settings.shard_frames)});
   } else {
@@ -24,8 +21,6 @@ std::vector<Shard> plan_shards(const FilterSettings& settings, int frames, int j
 }
 
 namespace {
-
-Status run_filter(const ResolvedSettings& resolved, const MotionIO& io);
 
 // Joints [joint_begin, joint_end) of the shard's frames, rotations and translations, as they came.
 void copy_samples(const Clip& input, Clip& output, int joint_begin, int joint_end,
@@ -50,8 +45,7 @@ Status run_shard(const ResolvedSettings& resolved, const Clip& input, Clip& outp
     copy_samples(input, output, shard.joint_begin, shard.joint_end, shard);
     return {};
   }
-  std::vector<std::uint8_t> translated = input.skeleton->translated_mask();
-  if (!s.filter_translations) std::fill(translated.begin(), translated.end(), 0);
+  const std::vector<std::uint8_t> translated = input.skeleton->translated_mask();
 
   // Each segment between impossible steps is filtered as a clip of its own: views into its rows
   // (the whole clip when it was not split).
@@ -74,33 +68,12 @@ Status run_shard(const ResolvedSettings& resolved, const Clip& input, Clip& outp
     io.joint_end = shard.joint_end;
     io.frame_begin = begin - seg.begin;
     io.frame_end = end - seg.begin;
-    status = run_filter(resolved, io);
+    status = run_method(s, io, resolved.distance_joints);
   }
   // Garbage joints as they came (after the filter: nlpm writes whole poses).
   for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j)
     if (resolved.kept_joints[std::size_t(j)]) copy_samples(input, output, j, j + 1, shard);
   return status;
 }
-
-namespace {
-
-Status run_filter(const ResolvedSettings& resolved, const MotionIO& io) {
-  const FilterSettings& s = resolved.settings;
-  switch (s.method) {
-    case Method::bof:
-      return BilateralJob{s.bilateral, io}.run();
-    case Method::nlpm:
-      return NlpmJob{s.nlpm, io, resolved.distance_joints}.run();
-    case Method::none:
-    case Method::automatic:  // resolved per clip; never left automatic
-      return {};
-    case Method::kalman:
-      return KalmanJob{s.kalman, io}.run();
-    default:
-      return LinearFilterJob{s.linear, io}.run();
-  }
-}
-
-}  // namespace
 
 }  // namespace mocap::engine

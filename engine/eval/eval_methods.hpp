@@ -1,6 +1,7 @@
 #pragma once
 // Runs one eval method on one segment of a noisy clip: at a grid point, or with the engine's
-// automatic parameters (what a user gets without giving any):
+// automatic parameters (what a user gets without giving any), through the same method table as
+// the pipeline (engine/clip/methods.hpp: resolve_parameters, run_method):
 //   bof          sigma_g and sigma_t from sigma_hat (automatic_bilateral, clip/filter_settings)
 //   nlpm         h = kNlpmAutoFactor sigma_hat (clip/filter_settings), K = 10, P = 5
 //   gaussian     sigma_t = 1 frame;  butterworth  order 2, 6 Hz;  moving-mean  5 passes
@@ -31,8 +32,7 @@ struct SegmentJob {
   TranslationView translations;
   TranslationSpan output_translations;
   std::span<const std::uint8_t> translated_joints;
-  bool automatic_floors = false;  // --method auto's floors of h and the range width
-  double body_height = 0;         // file units: auto's test for noisy positions
+  double body_height = 0;  // file units: auto's test for noisy positions
 };
 
 // Filters `job` with `method` at `point`, or automatically when point is null. A segment of one

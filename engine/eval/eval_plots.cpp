@@ -24,7 +24,7 @@ constexpr const char* kMethodColors[] = {"#1f77b4", "#d62728", "#2ca02c", "#ff7f
                                          "#9467bd", "#8c564b", "#e377c2", "#17becf"};
 
 std::string method_color(EvalMethod m) {
-  return kMethodColors[int(m) % 8];
+  return kMethodColors[m.index % 8];
 }
 
 // The gaussian condition nearest 0.03 rad (log distance), else -1.
@@ -122,7 +122,7 @@ bool curve_figures(const EvalResults& r, const EvalConfig& config, int c,
     double width;
   };
   std::vector<Curve> curves{{"noisy", "#aaaaaa", noisy.rotations, 1.0}};
-  for (EvalMethod m : {EvalMethod::bof, EvalMethod::nlpm}) {
+  for (EvalMethod m : {*parse_eval_method("bof"), *parse_eval_method("nlpm")}) {
     if (method_index(config, m) < 0) continue;
     Curve curve{std::string(to_string(m)) + " (automatic)", method_color(m), {}, 1.6};
     std::vector<float> translations;
@@ -201,7 +201,7 @@ bool curve_figures(const EvalResults& r, const EvalConfig& config, int c,
 bool iteration_figure(const EvalResults& r, const EvalConfig& config, int c,
                       const std::filesystem::path& dir, std::vector<Figure>* figures,
                       std::string* error) {
-  const int m = method_index(config, EvalMethod::bof);
+  const int m = method_index(config, *parse_eval_method("bof"));
   if (m < 0) return true;
   std::set<double> sigma_set;
   for (const ParamPoint& p : config.grids[std::size_t(m)].points)

@@ -295,10 +295,9 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       const ParamPoint* point = t.p < grid.points.size() ? &grid.points[t.p] : nullptr;
       const EvalClip& clip = r.clips[t.k];
       TaskResult& result = r.results[t.m][t.p][t.c][t.k];
-      const Status s =
-          filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
-                      out_translations, point ? nullptr : &result.resolved, grid.lock_feet,
-                      config.guard && grid.method == EvalMethod::automatic);
+      const Status s = filter_clip(clip, r.noisy[t.c][t.k], grid.method, grid.repaired, point, out,
+                                   out_translations, point ? nullptr : &result.resolved,
+                                   grid.lock_feet, config.guard && grid.method.automatic());
       if (!s) {
         result.error = s.message();
       } else {

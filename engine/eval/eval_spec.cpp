@@ -47,36 +47,19 @@ std::string_view alternative(std::string_view parameter) {
 }  // namespace
 
 std::optional<EvalMethod> parse_eval_method(std::string_view name) {
-  for (EvalMethod m : kAllEvalMethods)
-    if (to_string(m) == name) return m;
+  const std::span<const EvalVariant> variants = eval_variants();
+  for (std::size_t i = 0; i < variants.size(); ++i)
+    if (variants[i].name == name) return EvalMethod{int(i)};
   return std::nullopt;
 }
 
 std::string_view to_string(EvalMethod method) {
-  switch (method) {
-    case EvalMethod::bof:
-      return "bof";
-    case EvalMethod::nlpm:
-      return "nlpm";
-    case EvalMethod::gaussian:
-      return "gaussian";
-    case EvalMethod::butterworth:
-      return "butterworth";
-    case EvalMethod::moving_mean:
-      return "moving-mean";
-    case EvalMethod::kalman:
-      return "kalman";
-    case EvalMethod::nlpm_robust:
-      return "nlpm-robust";
-    case EvalMethod::automatic:
-      return "auto";
-  }
-  return "?";
+  return method.variant().name;
 }
 
 std::string label(const MethodGrid& grid) {
   std::string name(to_string(grid.method));
-  if (grid.repaired && grid.method != EvalMethod::automatic) name += "+pops";
+  if (grid.repaired && !grid.method.automatic()) name += "+pops";
   return grid.lock_feet ? name + "+feet" : name;
 }
 
@@ -195,50 +178,11 @@ std::string describe(const ParamPoint& point) {
 }
 
 std::vector<std::string> method_parameters(EvalMethod method) {
-  switch (method) {
-    case EvalMethod::bof:
-      return {"sigma_g", "sigma_g_factor", "sigma_g_floor",
-              "sigma_t", "sigma_t_factor", "iterations"};
-    case EvalMethod::nlpm:
-      return {"h", "h_factor", "K", "P", "translation_sigma_t"};
-    case EvalMethod::gaussian:
-      return {"sigma_t"};
-    case EvalMethod::butterworth:
-      return {"cutoff", "order"};
-    case EvalMethod::moving_mean:
-      return {"passes"};
-    case EvalMethod::kalman:
-      return {"lambda", "lambda_scale"};
-    case EvalMethod::nlpm_robust:
-      return {"h", "h_factor", "range_factor", "K", "P", "translation_sigma_t"};
-    case EvalMethod::automatic:
-      return {};
-  }
-  return {};
+  return method.variant().parameters;
 }
 
-// Modest grids around each method's default, wide enough to bracket the best value from 0.008 to
-// 0.12 rad of gaussian noise on CMU-like clips (4 to 8 points each; eval's time budget).
 std::vector<GridAxis> default_axes(EvalMethod method) {
-  switch (method) {
-    case EvalMethod::bof:
-      return {{"sigma_g", {0.05, 0.1, 0.2, 0.4}}, {"sigma_t", {1, 2}}};
-    case EvalMethod::nlpm:
-      return {{"h", {0.005, 0.01, 0.02, 0.04, 0.08, 0.16, 0.32}}};
-    case EvalMethod::gaussian:
-      return {{"sigma_t", {0.5, 1, 1.5, 2, 3, 4}}};
-    case EvalMethod::butterworth:
-      return {{"cutoff", {2, 4, 6, 10, 15, 25}}};
-    case EvalMethod::moving_mean:
-      return {{"passes", {1, 2, 5, 10, 20}}};
-    case EvalMethod::kalman:
-      return {{"lambda", {1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1}}};
-    case EvalMethod::nlpm_robust:  // relative to the noise: h = 1.2 sigma_hat, as nlpm's rule
-      return {{"range_factor", {1.5, 2, 3, 5, 8}}};
-    case EvalMethod::automatic:
-      return {};  // no grid: the automatic choice only
-  }
-  return {};
+  return method.variant().axes;
 }
 
 std::optional<GridOverride> parse_grid_override(std::string_view spec, std::string* error) {
@@ -276,8 +220,7 @@ std::vector<MethodGrid> build_grids(const std::vector<EvalMethod>& methods,
   std::vector<MethodGrid> grids;
   for (const bool repaired : {false, true})
     for (EvalMethod method : methods) {
-      if (method == EvalMethod::automatic ? !repaired : repaired ? !with_repaired : !with_plain)
-        continue;
+      if (method.automatic() ? !repaired : repaired ? !with_repaired : !with_plain) continue;
       std::vector<GridAxis> axes = default_axes(method);
       for (const GridOverride& o : overrides) {
         if (o.method != method) continue;

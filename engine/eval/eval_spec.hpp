@@ -7,29 +7,24 @@
 #include <utility>
 #include <vector>
 
+#include "engine/clip/methods.hpp"
 #include "kernels/noise_model.hpp"
 
 namespace mocap::engine::eval {
 
-// nlpm_robust: nlpm with the per-joint range term (NlpmParams::range_sigma); automatic: what
-// `--method auto` chooses per clip (engine/clip/filter_settings.hpp, choose_automatic).
-enum class EvalMethod {
-  bof,
-  nlpm,
-  gaussian,
-  butterworth,
-  moving_mean,
-  kalman,
-  nlpm_robust,
-  automatic
+// One of eval's methods: an index into the method table's eval_variants()
+// (engine/clip/methods.hpp): "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman",
+// "nlpm-robust" (nlpm with the per-joint range term), "auto" (what `--method auto` chooses per
+// clip, choose_automatic).
+struct EvalMethod {
+  int index = 0;
+  bool operator==(const EvalMethod&) const = default;
+  const EvalVariant& variant() const { return eval_variants()[std::size_t(index)]; }
+  bool automatic() const { return variant().method == Method::automatic; }
 };
 
-// "bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "nlpm-robust", "auto".
 std::optional<EvalMethod> parse_eval_method(std::string_view name);
 std::string_view to_string(EvalMethod method);
-inline constexpr EvalMethod kAllEvalMethods[] = {
-    EvalMethod::bof,         EvalMethod::nlpm,   EvalMethod::gaussian,    EvalMethod::butterworth,
-    EvalMethod::moving_mean, EvalMethod::kalman, EvalMethod::nlpm_robust, EvalMethod::automatic};
 
 struct NoiseCondition {
   enum class Model { gaussian, impulse } model = Model::gaussian;
@@ -49,8 +44,7 @@ struct NoiseCondition {
 std::vector<NoiseCondition> parse_noise(std::string_view spec, std::string* error);
 std::vector<NoiseCondition> default_noise_conditions();
 
-// One grid point: named parameter values, in a fixed order.
-using ParamPoint = std::vector<std::pair<std::string, double>>;
+// ParamPoint, one grid point, and GridAxis: engine/clip/methods.hpp.
 std::string describe(const ParamPoint& point);  // "sigma_g=0.2 sigma_t=1"
 
 // The parameters a method takes in a grid (README "eval"):
@@ -63,23 +57,19 @@ std::string describe(const ParamPoint& point);  // "sigma_g=0.2 sigma_t=1"
 // sqrt(sigma_hat)) frames, h = factor sigma_hat, lambda = kalman_auto_lambda with that scale.
 std::vector<std::string> method_parameters(EvalMethod method);
 
-struct GridAxis {
-  std::string parameter;
-  std::vector<double> values;
-};
 std::vector<GridAxis> default_axes(EvalMethod method);
 
 // "--grid METHOD.PARAM=v1,v2,..." replaces that axis of the method's grid (and the axis of its
 // alternative: h and h_factor, sigma_g and sigma_g_factor, sigma_t and sigma_t_factor, lambda
 // and lambda_scale).
 struct GridOverride {
-  EvalMethod method = EvalMethod::bof;
+  EvalMethod method;
   GridAxis axis;
 };
 std::optional<GridOverride> parse_grid_override(std::string_view spec, std::string* error);
 
 struct MethodGrid {
-  EvalMethod method = EvalMethod::bof;
+  EvalMethod method;
   std::vector<ParamPoint> points;  // the cartesian product of the axes
   // Run after the engine's default pop stage (--pops auto), with garbage joints kept as they
   // came and out of nlpm's

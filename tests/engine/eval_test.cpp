@@ -241,7 +241,8 @@ TEST(EvalCommand, UsageErrorsSayWhy) {
 // capture's contacts at most 1.05x the capture's (issue 14's target), where auto alone does not.
 TEST(EvalCommand, FeetBothAddsLockedRowsThatKeepTheCapturesSkating) {
   MOCAP_REQUIRE_SHARED_CLIPS();
-  std::vector<MethodGrid> grids = build_grids({EvalMethod::bof, EvalMethod::automatic}, {});
+  std::vector<MethodGrid> grids =
+      build_grids({*parse_eval_method("bof"), *parse_eval_method("auto")}, {});
   const std::size_t bof_points = grids[0].points.size();
   apply_feet_mode(grids, "both");
   ASSERT_EQ(grids.size(), 4u);
@@ -310,9 +311,10 @@ TEST(EvalSpec, GridsAreCartesianProductsAndAlternativesReplaceEachOther) {
   const auto g1 = parse_grid_override("bof.sigma_g=0.1,0.2,0.4", &error);
   const auto g2 = parse_grid_override("nlpm.h_factor=1,1.5", &error);
   ASSERT_TRUE(g1 && g2) << error;
-  const auto grids = build_grids({EvalMethod::bof, EvalMethod::nlpm}, {*g1, *g2});
+  const auto grids =
+      build_grids({*parse_eval_method("bof"), *parse_eval_method("nlpm")}, {*g1, *g2});
   ASSERT_EQ(grids.size(), 2u);
-  EXPECT_EQ(grids[0].points.size(), 3u * default_axes(EvalMethod::bof)[1].values.size());
+  EXPECT_EQ(grids[0].points.size(), 3u * default_axes(*parse_eval_method("bof"))[1].values.size());
   ASSERT_EQ(grids[1].points.size(), 2u);  // h_factor replaced the default h axis
   EXPECT_EQ(describe(grids[1].points[1]), "h_factor=1.5");
   EXPECT_FALSE(parse_grid_override("bof.sigma_g=0.1,x", &error));
