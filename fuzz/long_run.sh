@@ -14,8 +14,9 @@ mkdir -p "$work/corpus" "$work/artifacts"
 # HDF5 leaks on its own error paths (fuzz/lsan.supp), on nearly every damaged file: leak
 # detection is off (libFuzzer's and ASan's at exit); -rss_limit_mb still stops a growth. A small
 # quarantine keeps ASan's use-after-free check for recent frees without touching fresh pages on
-# every file (about 2x faster: HDF5 allocates a metadata cache per open file).
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:quarantine_size_mb=4}
+# every file (about 2x faster: HDF5 allocates a metadata cache per open file). Stacks are
+# symbolized later, by fuzz/classify_findings.py (llvm-symbolizer on every timeout cost seconds).
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:quarantine_size_mb=4:symbolize=0}
 log="$work/fuzz-$(date +%Y%m%d-%H%M%S).log"
 TIMEFORMAT='%R %U %S'
 # A timeout is 2 s: a valid library takes about 5 ms; HDF5 spins on some damaged global heaps.
