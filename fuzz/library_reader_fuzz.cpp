@@ -7,6 +7,7 @@
 // and every clip it reads and validates must be one export writes and import reads back.
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
@@ -97,9 +98,12 @@ void put_strings(hid_t file, const std::string& path, const std::vector<std::str
   H5Tclose(type);
 }
 
-// A dataset of `dims`; with `chunked` stored in chunks of up to 4 along the first axis; written
-// in full from `values` (repeated) when small and not `sparse`; else, when chunked, one element
-// (one chunk) stored; else nothing stored.
+// A dataset of `dims`; with `chunked` stored in chunks of up to 4 along the first axis and 64
+// along the others; written in full from `values` (repeated) when small and not `sparse`; else,
+// when chunked, one element (one chunk) stored; else nothing stored. The chunk is bounded because
+// HDF5 allocates a chunk's file space whole: a chunk as wide as a 2^40 axis made the in-memory
+// file grow to terabytes (ASan refused a 4-24 TB realloc in H5FD_truncate under H5Fflush, in
+// this builder, before the reader ever ran).
 void put_numbers(hid_t file, const std::string& path, hid_t file_type, hid_t memory_type,
                  std::vector<hsize_t> dims, const std::vector<double>& values, bool chunked,
                  bool sparse) {
@@ -111,8 +115,8 @@ void put_numbers(hid_t file, const std::string& path, hid_t file_type, hid_t mem
   const hid_t properties = H5Pcreate(H5P_DATASET_CREATE);
   if (chunked && count > 0) {
     std::vector<hsize_t> chunk = dims;
+    for (hsize_t& c : chunk) c = std::clamp<hsize_t>(c, 1, 64);
     chunk[0] = std::min<hsize_t>(chunk[0], 4);
-    for (hsize_t& c : chunk) c = std::max<hsize_t>(c, 1);
     H5Pset_chunk(properties, int(chunk.size()), chunk.data());
   }
   const hid_t d =

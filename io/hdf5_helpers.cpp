@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <functional>
 
 namespace mocap::io::h5 {
 
@@ -206,6 +207,35 @@ std::optional<std::vector<hsize_t>> dataset_dims(hid_t dataset) {
   return dims;
 }
 
+namespace {
+
+std::string shape(const std::vector<hsize_t>& dims) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < dims.size(); ++i) out += (i ? ", " : "") + std::to_string(dims[i]);
+  return out + "]";
+}
+
+}  // namespace
+
+bool for_each_chunk(const std::vector<hsize_t>& dims, const std::vector<hsize_t>& chunk,
+                    const std::function<bool(const hsize_t* offset)>& visit) {
+  std::vector<hsize_t> offset(dims.size(), 0);
+  if (std::any_of(dims.begin(), dims.end(), [](hsize_t d) { return d == 0; })) return true;
+  while (true) {
+    if (!visit(offset.data())) return false;
+    // The next offset, last axis fastest (HDF5's order of chunk coordinates).
+    std::size_t axis = dims.size();
+    while (axis > 0) {
+      --axis;
+      offset[axis] += chunk[axis];
+      if (offset[axis] < dims[axis]) break;
+      offset[axis] = 0;
+      if (axis == 0) return true;
+    }
+    if (dims.empty()) return true;
+  }
+}
+
 std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
   hsize_t elements = 1;
   for (hsize_t d : dims) elements *= d;
@@ -230,11 +260,24 @@ std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
       std::vector<hsize_t> chunk(dims.size());
       if (H5Pget_chunk(properties.get(), rank, chunk.data()) != rank)
         return with_detail("cannot read its chunk shape");
-      hsize_t expected = 1;
-      for (int i = 0; i < rank; ++i) {
-        if (chunk[std::size_t(i)] == 0) return "its chunk shape has a zero extent";
-        expected *= (dims[std::size_t(i)] + chunk[std::size_t(i)] - 1) / chunk[std::size_t(i)];
+      const Datatype type(H5Dget_type(dataset));
+      const hsize_t size = type ? H5Tget_size(type.get()) : 0;
+      if (size == 0) return with_detail("cannot read its element type");
+      // HDF5 allocates a whole chunk to decode one: a chunk shape is bounded by the data (a
+      // small dataset may have a chunk of up to kMaxChunkBytesOfSmallData), so a 5-frame
+      // clip cannot claim a 4 GiB chunk.
+      hsize_t chunk_bytes = size;
+      for (hsize_t c : chunk) {
+        if (c == 0) return "its chunk shape has a zero extent";
+        chunk_bytes = c > kMaxChunkBytes / chunk_bytes ? kMaxChunkBytes + 1 : chunk_bytes * c;
       }
+      const hsize_t data_bytes = elements * size;
+      if (chunk_bytes > std::max(data_bytes, kMaxChunkBytesOfSmallData))
+        return "its chunks of " + shape(chunk) + " (" + std::to_string(chunk_bytes) +
+               " bytes) are larger than its data (" + std::to_string(data_bytes) + " bytes)";
+      hsize_t expected = 1;
+      for (int i = 0; i < rank; ++i)
+        expected *= (dims[std::size_t(i)] + chunk[std::size_t(i)] - 1) / chunk[std::size_t(i)];
       hsize_t stored = 0;
       const Dataspace space(H5Dget_space(dataset));
       if (!space || H5Dget_num_chunks(dataset, space.get(), &stored) < 0)
@@ -242,7 +285,25 @@ std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
       if (stored != expected)
         return "the file stores " + std::to_string(stored) + " of its " + std::to_string(expected) +
                " chunks (a shape larger than its data)";
-      return {};
+      // HDF5 allocates a chunk's stored size, as its index records it, before it reads it.
+      const File file(H5Iget_file_id(dataset));
+      hsize_t file_size = 0;
+      if (!file || H5Fget_filesize(file.get(), &file_size) < 0)
+        return with_detail("cannot read the size of its file");
+      std::string problem;
+      for_each_chunk(dims, chunk, [&](const hsize_t* offset) {
+        hsize_t bytes = 0;
+        if (H5Dget_chunk_storage_size(dataset, offset, &bytes) < 0) {
+          problem = with_detail("cannot find its chunk at " +
+                                shape(std::vector<hsize_t>(offset, offset + rank)));
+        } else if (bytes > file_size) {
+          problem = "its chunk at " + shape(std::vector<hsize_t>(offset, offset + rank)) +
+                    " claims " + std::to_string(bytes) + " stored bytes, more than the file's " +
+                    std::to_string(file_size);
+        }
+        return problem.empty();
+      });
+      return problem;
     }
     default:
       return "its storage layout is unknown";

@@ -4,6 +4,7 @@
 // Internal to io/library_*.cpp; every function here is called from one thread at a time.
 #include <hdf5.h>
 
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -55,8 +56,16 @@ std::optional<std::vector<hsize_t>> dataset_dims(hid_t dataset);
 // Why reading the whole of `dataset` (of `dims`, the caller has them) would allocate more than
 // the file holds for it, or "": a chunked dataset must have every chunk stored, a contiguous one
 // all its bytes. HDF5 hands out the fill value for what is missing, so without this a few bytes
-// claiming millions of frames would cost gigabytes of memory.
+// claiming millions of frames would cost gigabytes of memory. A chunk may be no larger than the
+// data (or kMaxChunkBytesOfSmallData), and no stored chunk larger than the file: HDF5 allocates
+// both sizes as the file states them before it reads a chunk.
 std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims);
+inline constexpr hsize_t kMaxChunkBytesOfSmallData = hsize_t(1) << 20;
+inline constexpr hsize_t kMaxChunkBytes = hsize_t(1) << 32;  // HDF5 1.10's own chunk limit
+// Calls `visit` with the offset of every chunk of a dataset of `dims` in chunks of `chunk` (both
+// non-zero), in HDF5's order, until it returns false; false then.
+bool for_each_chunk(const std::vector<hsize_t>& dims, const std::vector<hsize_t>& chunk,
+                    const std::function<bool(const hsize_t* offset)>& visit);
 // Reads a whole numeric dataset of `count` elements converted to `memory_type`.
 bool read_dataset(hid_t group, const char* name, hid_t memory_type, std::size_t count, void* out);
 

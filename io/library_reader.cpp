@@ -306,9 +306,77 @@ std::shared_ptr<const Skeleton> read_skeleton(hid_t file, const std::string& nam
   return skeleton;
 }
 
-// Reads a whole motion dataset; a problem (naming the missing LZ4 plugin if that is it) or "".
-std::string read_floats(hid_t clip, const char* name, std::vector<float>& out) {
+// Why the LZ4 chunks of `dataset` must not reach the LZ4 plugin, or "". The plugin
+// (hdf5-filter-plugin) trusts a chunk's header: it allocates the size the header states and
+// decodes with LZ4_decompress_fast, which reads past the end of a damaged block. So each LZ4
+// chunk is first decoded by the store's own decoder (lz4_filter_decode: LZ4_decompress_safe,
+// every size checked), and must give exactly one chunk's bytes. check_storage() has bounded the
+// chunk shape by the data and each stored chunk by the file.
+std::string check_lz4_chunks(hid_t dataset, const char* name, const std::vector<hsize_t>& dims) {
+  const h5::PropertyList properties(H5Dget_create_plist(dataset));
+  if (!properties) return h5::with_detail(std::string("cannot open its '") + name + "' dataset");
+  const int filters = H5Pget_nfilters(properties.get());
+  int lz4 = -1;
+  int checksum = -1;  // a Fletcher-32 after LZ4: its 4 bytes end the stored chunk
+  for (int i = 0; i < filters; ++i) {
+    unsigned flags = 0;
+    std::size_t values = 0;
+    const H5Z_filter_t id = H5Pget_filter2(properties.get(), unsigned(i), &flags, &values, nullptr,
+                                           0, nullptr, nullptr);
+    if (id == H5Z_filter_t(kLz4FilterId)) lz4 = i;
+    if (id == H5Z_FILTER_FLETCHER32 && lz4 >= 0) checksum = i;
+  }
+  if (lz4 < 0 || H5Pget_layout(properties.get()) != H5D_CHUNKED) return {};
+  const int rank = int(dims.size());
+  std::vector<hsize_t> chunk(dims.size());
+  const h5::Datatype type(H5Dget_type(dataset));
+  if (H5Pget_chunk(properties.get(), rank, chunk.data()) != rank || !type)
+    return h5::with_detail(std::string("cannot read the chunk shape of its '") + name +
+                           "' dataset");
+  std::uint64_t chunk_bytes = H5Tget_size(type.get());
+  for (hsize_t c : chunk) chunk_bytes *= c;  // bounded by check_storage()
+  std::vector<std::uint8_t> stored, decoded;
+  std::string problem;
+  h5::for_each_chunk(dims, chunk, [&](const hsize_t* offset) {
+    const std::string where =
+        "its '" + std::string(name) + "' chunk at frame " + std::to_string(offset[0]);
+    hsize_t size = 0;
+    uint32_t mask = 0;
+    if (H5Dget_chunk_storage_size(dataset, offset, &size) < 0) {
+      problem = h5::with_detail("cannot find " + where);
+      return false;
+    }
+    stored.resize(std::size_t(size));
+    if (H5Dread_chunk(dataset, H5P_DEFAULT, offset, &mask, stored.data()) < 0) {
+      problem = h5::with_detail("cannot read " + where);
+      return false;
+    }
+    if (mask & (1u << unsigned(lz4))) return true;  // stored without LZ4: the plugin skips it
+    std::span<const std::uint8_t> bytes(stored);
+    if (checksum >= 0 && !(mask & (1u << unsigned(checksum))))
+      bytes = bytes.first(bytes.size() >= 4 ? bytes.size() - 4 : 0);
+    std::uint64_t claimed = 0;
+    for (std::size_t i = 0; i < 8 && bytes.size() >= 8; ++i) claimed = claimed << 8 | bytes[i];
+    decoded.clear();
+    if (bytes.size() < 12 || claimed != chunk_bytes || !lz4_filter_decode(bytes, decoded) ||
+        decoded.size() != chunk_bytes) {
+      problem = where + " is not a valid LZ4 chunk of " + std::to_string(chunk_bytes) +
+                " bytes (the file is damaged)";
+      return false;
+    }
+    return true;
+  });
+  return problem;
+}
+
+// Reads a whole motion dataset of `dims` (checked by motion_dims()); a problem (naming the
+// missing LZ4 plugin if that is it) or "".
+std::string read_floats(hid_t clip, const char* name, const std::vector<hsize_t>& dims,
+                        std::vector<float>& out) {
   const h5::Dataset dataset(H5Dopen2(clip, name, H5P_DEFAULT));
+  if (dataset && !out.empty())
+    if (std::string problem = check_lz4_chunks(dataset.get(), name, dims); !problem.empty())
+      return problem;
   if (dataset && (out.empty() || H5Dread(dataset.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL,
                                          H5P_DEFAULT, out.data()) >= 0))
     return {};
@@ -605,9 +673,11 @@ std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
                             " frames x " + std::to_string(joints) + " joints");
     return std::nullopt;
   }
-  std::string problem = read_floats(opened->group.get(), "rotations", clip.rotations);
+  const std::vector<hsize_t> rotations = {hsize_t(clip.frames), hsize_t(joints), 4};
+  const std::vector<hsize_t> translations = {hsize_t(clip.frames), hsize_t(joints), 3};
+  std::string problem = read_floats(opened->group.get(), "rotations", rotations, clip.rotations);
   if (problem.empty())
-    problem = read_floats(opened->group.get(), "translations", clip.translations);
+    problem = read_floats(opened->group.get(), "translations", translations, clip.translations);
   if (!problem.empty()) {
     state_->fail(error, where + problem);
     return std::nullopt;
