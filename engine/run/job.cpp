@@ -193,6 +193,16 @@ RunSummary run_job(const Job& job) {
       state.after = std::move(g.after);
       state.kept = g.kept;
       state.raw = {};
+      // A library output says per clip what it holds: the parameters ran, but the clip kept
+      // something nearer its input.
+      if (g.kept != (feet.lock ? Kept::filtered_locked : Kept::filtered)) {
+        ClipProvenance& p = item.output.provenance;
+        nlohmann::json parameters = nlohmann::json::parse(p.parameters_json, nullptr, false);
+        if (parameters.is_object()) {
+          parameters["kept"] = std::string(to_string(g.kept));
+          p.parameters_json = parameters.dump();
+        }
+      }
     }
     item.input = {};  // free the input early: only the output goes on
     if (feet.lock && !guard) {
