@@ -289,6 +289,7 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
   j["engine_version"] = std::string(kVersion);
   j["seed"] = config.seed;
   j["split_impossible"] = config.split_impossible;
+  j["guard"] = config.guard;  // auto's runs end with clean's guard (engine/clip/motion_guard.hpp)
   j["split_max_speed_rad_s"] = config.split.max_speed;
   j["split_max_step_rad"] = config.split.max_step;
   j["timing"] = {{"prepare_seconds", r.prepare_seconds},
@@ -465,7 +466,12 @@ std::string html_report(const EvalResults& r, const EvalConfig& config,
   }
   html += "</table>\n<h2>Automatic parameters</h2>\n<ul>\n";
   for (const MethodGrid& g : config.grids)
-    html += fmt::format("<li><b>{}</b>: {}</li>\n", label(g), escape_xml(automatic_rule(g.method)));
+    html +=
+        fmt::format("<li><b>{}</b>: {}{}</li>\n", label(g), escape_xml(automatic_rule(g.method)),
+                    g.method.automatic() && config.guard
+                        ? "; then clean's guard: a clip whose jitter or skating rose above "
+                          "the noisy input's falls back toward it (eval --guard off: without)"
+                        : "");
   html +=
       "</ul>\n<p>Everything, per clip and per grid point: <a href=\"report.json\">report.json</a>; "
       "the tables as markdown: <a href=\"table.md\">table.md</a>.</p>\n</body>\n</html>\n";

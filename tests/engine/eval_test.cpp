@@ -289,6 +289,7 @@ TEST(EvalCommand, GuardKeepsCleanCapturesAndLeavesNoisyOnesToTheFilter) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto report = nlohmann::json::parse(test::read_text(out.path() / "report.json"));
   ASSERT_EQ(report["methods"].size(), 1u);
+  EXPECT_TRUE(report["guard"].get<bool>());
   const auto& results = report["methods"][0]["automatic"]["results"];
   int fell_back = 0;
   for (std::size_t k = 0; k < report["clips"].size(); ++k) {
