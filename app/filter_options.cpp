@@ -106,11 +106,12 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->check(CLI::IsMember({"lock", "off"}))
       ->group("Cleaning");
   cmd.add_option("--guard", guard,
-                 "last: a clip whose joint positions come out with more jitter or more foot "
-                 "skating than they went in with (the clip as read, over its own contacts) "
-                 "falls back to the filter without the lock, then to the input (pops repaired) "
-                 "locked, then to the input, so cleaning never makes a capture worse on what it "
-                 "can measure. Default: on with --method auto; off with a named method")
+                 "after the filter and the feet: a clip whose joint positions come out with "
+                 "more jitter or more foot skating than they went in with (the clip as read, "
+                 "over its own contacts) falls back to the filter without the lock, then to the "
+                 "input (pops repaired) locked, then to the input, then to the clip as read, so "
+                 "cleaning never makes a capture worse on what it can measure. Default: on with "
+                 "--method auto; off with a named method")
       ->check(CLI::IsMember({"on", "off"}))
       ->group("Cleaning");
   auto* split_on = cmd.add_flag(
