@@ -94,21 +94,25 @@ FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat
   FilterSettings s = settings;
   if (noisy_positions) {
     s.method = Method::bof;
-    s.bilateral = BilateralParams{};
-    s.bilateral.boundary = settings.bilateral.boundary;
-    s.bilateral.sigma_g = kAutoSmoothSigmaGFactor * sigma_hat;
-    s.bilateral.sigma_t = 0;  // automatic_bilateral
-    s.bilateral.iterations = std::clamp(int(std::ceil(5.0 / (120.0 * frame_time) - 1e-9)), 2, 5);
+    BilateralParams& b = s.edit<BilateralParams>();
+    b = BilateralParams{};
+    b.boundary = settings.param<BilateralParams>().boundary;
+    b.sigma_g = kAutoSmoothSigmaGFactor * sigma_hat;
+    b.sigma_t = 0;  // automatic_bilateral
+    b.iterations = std::clamp(int(std::ceil(5.0 / (120.0 * frame_time) - 1e-9)), 2, 5);
   } else if (sigma_hat < kAutoCleanBelow) {
     s.method = Method::nlpm;
-    s.nlpm = NlpmParams{};
-    s.nlpm.boundary = settings.nlpm.boundary;
-    s.nlpm.translation_sigma_t = settings.nlpm.translation_sigma_t;
+    const NlpmParams asked = settings.param<NlpmParams>();
+    NlpmParams& n = s.edit<NlpmParams>();
+    n = NlpmParams{};
+    n.boundary = asked.boundary;
+    n.translation_sigma_t = asked.translation_sigma_t;
     s.nlpm_range = -1;  // automatic: kNlpmAutoRangeFactor sigma_hat
   } else {
     s.method = Method::bof;
-    s.bilateral = automatic_smoothing(sigma_hat, frame_time);
-    s.bilateral.boundary = settings.bilateral.boundary;
+    BilateralParams& b = s.edit<BilateralParams>();
+    b = automatic_smoothing(sigma_hat, frame_time);
+    b.boundary = settings.param<BilateralParams>().boundary;
     // Position channels without measurable noise are kept as they came, as nlpm's automatic
     // translation width keeps them (automatic_translation_sigma_t): bof's Gaussian of 1.3 frames
     // on a clean root at 30 fps raised one clip's joint position error to 1.62x its noisy
@@ -195,7 +199,6 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
       r.noisy_positions = has_noisy_positions(context.translation_noise(), context.body_height);
   }
   r.settings = resolve_parameters(r.settings, context, r.noisy_positions);
-  r.settings.nlpm.range_sigma = std::max(0.0, r.settings.nlpm_range);
   if (settings.split_impossible) {
     // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
     std::vector<std::uint8_t> flipping;

@@ -1,7 +1,9 @@
 #pragma once
 // What a filter run is asked to do: the method, every parameter of the spec, and how a clip is
 // cut into shards. Resolves the automatic parameters per clip and runs one shard's job.
+#include <any>
 #include <cstdint>
+#include <deque>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <span>
@@ -19,8 +21,19 @@
 
 namespace mocap::engine {
 
+// A method is its place in the table of methods (engine/clip/methods.cpp). These are the ones
+// the engine's own rules name; a method added to the table needs no name here (find_method).
 // automatic: chosen per clip from what the clip shows (choose_automatic below).
-enum class Method { none, bof, nlpm, gaussian, butterworth, moving_mean, kalman, automatic };
+enum class Method : std::uint8_t {
+  none,
+  bof,
+  nlpm,
+  gaussian,
+  butterworth,
+  moving_mean,
+  kalman,
+  automatic
+};
 
 // Pop repair before the filter (engine/clip/clip_conditioning.hpp): off = the spec's filter
 // exactly; auto = repair at kPopsRepairMinFps and above, detect (count only) below.
@@ -120,19 +133,52 @@ struct FilterSettings {
   // Filter each segment between physically impossible steps (kernels/motion_split.hpp: CMU's
   // synthetic T-pose frame 0) as a clip of its own.
   bool split_impossible = false;
-  BilateralParams bilateral;
-  LinearParams linear;
-  // h == 0: derived per clip from the estimated noise; translation_sigma_t < 0: likewise, from
-  // the translations' (automatic_translation_sigma_t).
-  NlpmParams nlpm{.translation_sigma_t = kAutomaticTranslationSigma};
-  KalmanParams kalman;              // lambda == 0: derived per clip (kalman_auto_lambda)
   bool filter_translations = true;  // --translations filter|keep
   int shard_joints = 8;             // joint block of per-joint methods
   int shard_frames = 256;           // time block of nlpm
 
   Status validate() const;
   nlohmann::json to_json() const;  // parameters as recorded in provenance
+
+  // Each method's parameters, as its kernel's Params struct (BilateralParams, NlpmParams, ...),
+  // kept by type: the table of methods reads and sets them, so a method's parameters need no
+  // member here. param<P>() is default_params<P>() until edit<P>() sets it. Automatic markers:
+  // bof's sigma_g, sigma_t == 0, nlpm's h == 0 and translation_sigma_t < 0, kalman's lambda == 0
+  // are resolved per clip (the table's `resolve`).
+  template <class P>
+  P param() const;
+  template <class P>
+  P& edit();
+
+ private:
+  // A deque: a reference edit() returned stays valid when another type is added.
+  std::deque<std::any> params_;
 };
+
+// The parameters a method starts from: its kernel's defaults, except where the engine's differ.
+template <class P>
+P default_params() {
+  return P{};
+}
+// nlpm's translations: automatic (the spec's translation rule for nlpm is withdrawn).
+template <>
+inline NlpmParams default_params<NlpmParams>() {
+  return {.translation_sigma_t = kAutomaticTranslationSigma};
+}
+
+template <class P>
+P FilterSettings::param() const {
+  for (const std::any& a : params_)
+    if (const P* p = std::any_cast<P>(&a)) return *p;
+  return default_params<P>();
+}
+
+template <class P>
+P& FilterSettings::edit() {
+  for (std::any& a : params_)
+    if (P* p = std::any_cast<P>(&a)) return *p;
+  return *std::any_cast<P>(&params_.emplace_back(default_params<P>()));
+}
 
 // The per-clip resolution of automatic parameters, done once on the whole clip before sharding.
 struct ResolvedSettings {

@@ -72,12 +72,11 @@ Status runs_nothing(const FilterSettings&, const MotionIO&, std::span<const std:
 
 // bof (kernels/bilateral.hpp): sigma_g = 0 and sigma_t = 0 ask for automatic_bilateral.
 bool bof_needs_noise(const FilterSettings& s) {
-  return s.bilateral.sigma_g == 0 || s.bilateral.sigma_t == 0;
+  return s.param<BilateralParams>().sigma_g == 0 || s.param<BilateralParams>().sigma_t == 0;
 }
 
 MethodEntry bof_entry() {
   return {
-      .method = Method::bof,
       .name = "bof",
       .help = "bof: bilateral orientation filter (Courty 2008): smooths jitter, keeps edges",
       .options = {{.flags = "--sigma-t",
@@ -86,14 +85,14 @@ MethodEntry bof_entry() {
                    .check = MethodOption::Check::non_negative,
                    .json_key = "sigma_t",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.bilateral.sigma_t = x; }},
+                               const std::string&) { s.edit<BilateralParams>().sigma_t = x; }},
                   {.flags = "--window,-k",
                    .help = kWindowHelp,
                    .type = MethodOption::Type::integer,
                    .check = MethodOption::Check::non_negative,
                    .json_key = "window",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.bilateral.window = int(x); }},
+                               const std::string&) { s.edit<BilateralParams>().window = int(x); }},
                   {.flags = "--sigma-g",
                    .help = "bof: range width, full rotation angle, in rad or e.g. 10deg (0 = "
                            "automatic, from the noise)",
@@ -104,15 +103,17 @@ MethodEntry bof_entry() {
                    .implausible_above = kPi / 2,
                    .implausible_why = "steps smaller than it are smoothed as jitter",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.bilateral.sigma_g = x; }},
+                               const std::string&) { s.edit<BilateralParams>().sigma_g = x; }},
                   {.flags = "--iterations",
                    .help = "bof: how many times the filter runs on its own output",
                    .type = MethodOption::Type::integer,
                    .default_number = 5,
                    .check = MethodOption::Check::positive,
                    .json_key = "iterations",
-                   .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.bilateral.iterations = int(x); }},
+                   .apply =
+                       [](FilterSettings& s, double x, const std::string&) {
+                         s.edit<BilateralParams>().iterations = int(x);
+                       }},
                   {.flags = "--kernel",
                    .help = "bof: gaussian, or paper (Courty's printed kernel, for comparison)",
                    .type = MethodOption::Type::word,
@@ -121,7 +122,7 @@ MethodEntry bof_entry() {
                    .json_key = "kernel",
                    .apply =
                        [](FilterSettings& s, double, const std::string& w) {
-                         s.bilateral.kernel =
+                         s.edit<BilateralParams>().kernel =
                              w == "paper" ? BilateralKernel::paper : BilateralKernel::gaussian;
                        }},
                   {.flags = "--sigma-p",
@@ -131,21 +132,23 @@ MethodEntry bof_entry() {
                    .json_key = "sigma_p",
                    .apply =
                        [](FilterSettings& s, double x, const std::string&) {
-                         s.bilateral.sigma_p = x > 0 ? x : std::numeric_limits<double>::infinity();
+                         s.edit<BilateralParams>().sigma_p =
+                             x > 0 ? x : std::numeric_limits<double>::infinity();
                        }},
                   boundary_option([](FilterSettings& s, double, const std::string& w) {
-                    s.bilateral.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                    s.edit<BilateralParams>().boundary =
+                        parse_boundary(w).value_or(Boundary::mirror);
                   })},
       .validate =
           [](const FilterSettings& s) {
-            BilateralParams p = s.bilateral;
+            BilateralParams p = s.param<BilateralParams>();
             if (p.sigma_g == 0) p.sigma_g = 1;  // automatic: resolved per clip
             if (p.sigma_t == 0) p.sigma_t = 1;
             return p.validate();
           },
       .to_json =
           [](const FilterSettings& s, json& j) {
-            const BilateralParams& b = s.bilateral;
+            const BilateralParams b = s.param<BilateralParams>();
             j["sigma_t"] = or_auto(b.sigma_t, b.sigma_t == 0);
             j["sigma_g"] = or_auto(b.sigma_g, b.sigma_g == 0);
             j["window"] = b.window;
@@ -158,11 +161,12 @@ MethodEntry bof_entry() {
       .resolve =
           [](FilterSettings& s, const NoiseContext& c) {
             if (bof_needs_noise(s))
-              s.bilateral = automatic_bilateral(s.bilateral, c.sigma_hat, c.frame_time);
+              s.edit<BilateralParams>() =
+                  automatic_bilateral(s.param<BilateralParams>(), c.sigma_hat, c.frame_time);
           },
       .run =
           [](const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
-            return BilateralJob{s.bilateral, io}.run();
+            return BilateralJob{s.param<BilateralParams>(), io}.run();
           },
   };
 }
@@ -170,12 +174,11 @@ MethodEntry bof_entry() {
 // nlpm (kernels/nlpm.hpp): h = 0 and a range < 0 ask for the noise; translation_sigma_t < 0 for
 // automatic_translation_sigma_t.
 bool nlpm_needs_noise(const FilterSettings& s) {
-  return s.nlpm.h == 0 || s.nlpm_range < 0;
+  return s.param<NlpmParams>().h == 0 || s.nlpm_range < 0;
 }
 
 MethodEntry nlpm_entry() {
   return {
-      .method = Method::nlpm,
       .name = "nlpm",
       .help = "nlpm: non-local pose means (Dean & Lewis 2017): averages similar poses",
       .options = {{.flags = "--search-radius,-K",
@@ -184,8 +187,10 @@ MethodEntry nlpm_entry() {
                    .default_number = 10,
                    .check = MethodOption::Check::positive,
                    .json_key = "search_radius",
-                   .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.nlpm.search_radius = int(x); }},
+                   .apply =
+                       [](FilterSettings& s, double x, const std::string&) {
+                         s.edit<NlpmParams>().search_radius = int(x);
+                       }},
                   {.flags = "--patch-radius,-P",
                    .help = "nlpm: patch radius P (2P+1 poses)",
                    .type = MethodOption::Type::integer,
@@ -193,7 +198,7 @@ MethodEntry nlpm_entry() {
                    .check = MethodOption::Check::non_negative,
                    .json_key = "patch_radius",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.nlpm.patch_radius = int(x); }},
+                               const std::string&) { s.edit<NlpmParams>().patch_radius = int(x); }},
                   {.flags = "--h",
                    .help = "nlpm: strength in rad or e.g. 2deg (0 = automatic, from the estimated "
                            "noise)",
@@ -202,7 +207,8 @@ MethodEntry nlpm_entry() {
                    .json_key = "h",
                    .implausible_above = kPi / 2,
                    .implausible_why = "every pose counts as similar to every other",
-                   .apply = [](FilterSettings& s, double x, const std::string&) { s.nlpm.h = x; }},
+                   .apply = [](FilterSettings& s, double x,
+                               const std::string&) { s.edit<NlpmParams>().h = x; }},
                   {.flags = "--space",
                    .help = "nlpm: tangent (default), or log (the paper, literally)",
                    .type = MethodOption::Type::word,
@@ -211,7 +217,8 @@ MethodEntry nlpm_entry() {
                    .json_key = "space",
                    .apply =
                        [](FilterSettings& s, double, const std::string& w) {
-                         s.nlpm.space = w == "log" ? NlpmSpace::log : NlpmSpace::tangent;
+                         s.edit<NlpmParams>().space =
+                             w == "log" ? NlpmSpace::log : NlpmSpace::tangent;
                        }},
                   {.flags = "--nlpm-range",
                    .help = "nlpm: per-joint range term, off (the spec's nlpm), auto (5 x the "
@@ -248,49 +255,50 @@ MethodEntry nlpm_entry() {
                    .json_key = "translation_sigma_t",
                    .apply =
                        [](FilterSettings& s, double, const std::string& w) {
-                         s.nlpm.translation_sigma_t =
+                         s.edit<NlpmParams>().translation_sigma_t =
                              w == "auto" ? kAutomaticTranslationSigma : std::stod(w);
                        }},
                   boundary_option([](FilterSettings& s, double, const std::string& w) {
-                    s.nlpm.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                    s.edit<NlpmParams>().boundary = parse_boundary(w).value_or(Boundary::mirror);
                   })},
       .shard_by_frames = true,
       .validate =
           [](const FilterSettings& s) {
-            NlpmParams p = s.nlpm;
+            NlpmParams p = s.param<NlpmParams>();
             if (p.h == 0) p.h = 1;  // automatic: checked per clip
             if (p.translation_sigma_t < 0) p.translation_sigma_t = 0;
             return p.validate();
           },
       .to_json =
           [](const FilterSettings& s, json& j) {
-            j["search_radius"] = s.nlpm.search_radius;
-            j["patch_radius"] = s.nlpm.patch_radius;
-            j["h"] = or_auto(s.nlpm.h, s.nlpm.h == 0);
-            j["space"] = s.nlpm.space == NlpmSpace::log ? "log" : "tangent";
+            const NlpmParams n = s.param<NlpmParams>();
+            j["search_radius"] = n.search_radius;
+            j["patch_radius"] = n.patch_radius;
+            j["h"] = or_auto(n.h, n.h == 0);
+            j["space"] = n.space == NlpmSpace::log ? "log" : "tangent";
             j["range_sigma"] = or_auto(s.nlpm_range, s.nlpm_range < 0);
-            j["translation_sigma_t"] =
-                or_auto(s.nlpm.translation_sigma_t, s.nlpm.translation_sigma_t < 0);
-            j["boundary"] = std::string(to_string(s.nlpm.boundary));
+            j["translation_sigma_t"] = or_auto(n.translation_sigma_t, n.translation_sigma_t < 0);
+            j["boundary"] = std::string(to_string(n.boundary));
           },
       .needs_noise = nlpm_needs_noise,
       .resolve =
           [](FilterSettings& s, const NoiseContext& c) {
-            if (s.nlpm.h == 0) s.nlpm.h = kNlpmAutoFactor * c.sigma_hat;
+            NlpmParams& n = s.edit<NlpmParams>();
+            if (n.h == 0) n.h = kNlpmAutoFactor * c.sigma_hat;
             if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * c.sigma_hat;
             if (c.automatic) {
-              s.nlpm.h = std::max(s.nlpm.h, kAutoNlpmMinH);
+              n.h = std::max(n.h, kAutoNlpmMinH);
               s.nlpm_range = std::max(s.nlpm_range, kAutoNlpmMinRange);
             }
-            s.nlpm.range_sigma = std::max(0.0, s.nlpm_range);
-            if (s.nlpm.translation_sigma_t < 0)
-              s.nlpm.translation_sigma_t =
+            n.range_sigma = std::max(0.0, s.nlpm_range);
+            if (n.translation_sigma_t < 0)
+              n.translation_sigma_t =
                   automatic_translation_sigma_t(c.translation_noise(), c.frame_time, c.body_height);
           },
       .run =
           [](const FilterSettings& s, const MotionIO& io,
              std::span<const std::uint8_t> distance_joints) {
-            return NlpmJob{s.nlpm, io, distance_joints}.run();
+            return NlpmJob{s.param<NlpmParams>(), io, distance_joints}.run();
           },
   };
 }
@@ -298,21 +306,20 @@ MethodEntry nlpm_entry() {
 // The linear filters (kernels/linear_filter.hpp): one entry each, all on LinearParams.
 template <LinearKind kKind>
 void set_linear_kind(FilterSettings& s) {
-  s.linear.kind = kKind;
+  s.edit<LinearParams>().kind = kKind;
 }
 template <LinearKind kKind>
 Status validate_linear(const FilterSettings& s) {
-  LinearParams p = s.linear;
+  LinearParams p = s.param<LinearParams>();
   p.kind = kKind;
   return p.validate();
 }
 Status run_linear(const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
-  return LinearFilterJob{s.linear, io}.run();
+  return LinearFilterJob{s.param<LinearParams>(), io}.run();
 }
 
 MethodEntry gaussian_entry() {
   return {
-      .method = Method::gaussian,
       .name = "gaussian",
       .help = "gaussian | butterworth | moving-mean: linear filters (Lee-Shin construction)",
       .options = {{.flags = "--sigma-t",
@@ -321,24 +328,24 @@ MethodEntry gaussian_entry() {
                    .check = MethodOption::Check::non_negative,
                    .json_key = "sigma_t",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.linear.sigma_t = x; }},
+                               const std::string&) { s.edit<LinearParams>().sigma_t = x; }},
                   {.flags = "--window,-k",
                    .help = kWindowHelp,
                    .type = MethodOption::Type::integer,
                    .check = MethodOption::Check::non_negative,
                    .json_key = "window",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.linear.window = int(x); }},
+                               const std::string&) { s.edit<LinearParams>().window = int(x); }},
                   boundary_option([](FilterSettings& s, double, const std::string& w) {
-                    s.linear.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                    s.edit<LinearParams>().boundary = parse_boundary(w).value_or(Boundary::mirror);
                   })},
       .normalize = set_linear_kind<LinearKind::gaussian>,
       .validate = validate_linear<LinearKind::gaussian>,
       .to_json =
           [](const FilterSettings& s, json& j) {
-            j["sigma_t"] = s.linear.sigma_t;
-            j["window"] = s.linear.window;
-            j["boundary"] = std::string(to_string(s.linear.boundary));
+            j["sigma_t"] = s.param<LinearParams>().sigma_t;
+            j["window"] = s.param<LinearParams>().window;
+            j["boundary"] = std::string(to_string(s.param<LinearParams>().boundary));
           },
       .needs_noise = never,
       .resolve = nothing_to_resolve,
@@ -348,7 +355,6 @@ MethodEntry gaussian_entry() {
 
 MethodEntry butterworth_entry() {
   return {
-      .method = Method::butterworth,
       .name = "butterworth",
       .help = {},  // on gaussian's line
       .options = {{.flags = "--order",
@@ -360,24 +366,24 @@ MethodEntry butterworth_entry() {
                    .max = 8,
                    .json_key = "order",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.linear.order = int(x); }},
+                               const std::string&) { s.edit<LinearParams>().order = int(x); }},
                   {.flags = "--cutoff",
                    .help = "butterworth: single-pass -3 dB cut-off in Hz",
                    .default_number = 6.0,
                    .check = MethodOption::Check::positive,
                    .json_key = "cutoff",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.linear.cutoff = x; }},
+                               const std::string&) { s.edit<LinearParams>().cutoff = x; }},
                   boundary_option([](FilterSettings& s, double, const std::string& w) {
-                    s.linear.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                    s.edit<LinearParams>().boundary = parse_boundary(w).value_or(Boundary::mirror);
                   })},
       .normalize = set_linear_kind<LinearKind::butterworth>,
       .validate = validate_linear<LinearKind::butterworth>,
       .to_json =
           [](const FilterSettings& s, json& j) {
-            j["order"] = s.linear.order;
-            j["cutoff"] = s.linear.cutoff;
-            j["boundary"] = std::string(to_string(s.linear.boundary));
+            j["order"] = s.param<LinearParams>().order;
+            j["cutoff"] = s.param<LinearParams>().cutoff;
+            j["boundary"] = std::string(to_string(s.param<LinearParams>().boundary));
           },
       .needs_noise = never,
       .resolve = nothing_to_resolve,
@@ -387,7 +393,6 @@ MethodEntry butterworth_entry() {
 
 MethodEntry moving_mean_entry() {
   return {
-      .method = Method::moving_mean,
       .name = "moving-mean",
       .help = {},  // on gaussian's line
       .options = {{.flags = "--passes",
@@ -397,16 +402,16 @@ MethodEntry moving_mean_entry() {
                    .check = MethodOption::Check::positive,
                    .json_key = "passes",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.linear.passes = int(x); }},
+                               const std::string&) { s.edit<LinearParams>().passes = int(x); }},
                   boundary_option([](FilterSettings& s, double, const std::string& w) {
-                    s.linear.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                    s.edit<LinearParams>().boundary = parse_boundary(w).value_or(Boundary::mirror);
                   })},
       .normalize = set_linear_kind<LinearKind::moving_mean>,
       .validate = validate_linear<LinearKind::moving_mean>,
       .to_json =
           [](const FilterSettings& s, json& j) {
-            j["passes"] = s.linear.passes;
-            j["boundary"] = std::string(to_string(s.linear.boundary));
+            j["passes"] = s.param<LinearParams>().passes;
+            j["boundary"] = std::string(to_string(s.param<LinearParams>().boundary));
           },
       .needs_noise = never,
       .resolve = nothing_to_resolve,
@@ -417,7 +422,6 @@ MethodEntry moving_mean_entry() {
 // kalman (kernels/kalman.hpp): lambda = 0 asks for kalman_auto_lambda.
 MethodEntry kalman_entry() {
   return {
-      .method = Method::kalman,
       .name = "kalman",
       .help = "kalman: constant-velocity RTS smoother (Lee-Shin), a baseline",
       .options = {{.flags = "--kalman-lambda",
@@ -426,32 +430,32 @@ MethodEntry kalman_entry() {
                    .check = MethodOption::Check::non_negative,
                    .json_key = "lambda",
                    .apply = [](FilterSettings& s, double x,
-                               const std::string&) { s.kalman.lambda = x; }},
+                               const std::string&) { s.edit<KalmanParams>().lambda = x; }},
                   boundary_option([](FilterSettings& s, double, const std::string& w) {
-                    s.kalman.boundary = parse_boundary(w).value_or(Boundary::mirror);
+                    s.edit<KalmanParams>().boundary = parse_boundary(w).value_or(Boundary::mirror);
                   })},
-      .validate = [](const FilterSettings& s) { return s.kalman.validate(); },
+      .validate = [](const FilterSettings& s) { return s.param<KalmanParams>().validate(); },
       .to_json =
           [](const FilterSettings& s, json& j) {
-            j["lambda"] = or_auto(s.kalman.lambda, s.kalman.lambda == 0);
-            j["boundary"] = std::string(to_string(s.kalman.boundary));
+            const double lambda = s.param<KalmanParams>().lambda;
+            j["lambda"] = or_auto(lambda, lambda == 0);
+            j["boundary"] = std::string(to_string(s.param<KalmanParams>().boundary));
           },
-      .needs_noise = [](const FilterSettings& s) { return s.kalman.lambda == 0; },
+      .needs_noise = [](const FilterSettings& s) { return s.param<KalmanParams>().lambda == 0; },
       .resolve =
           [](FilterSettings& s, const NoiseContext& c) {
-            if (s.kalman.lambda == 0)
-              s.kalman.lambda = kalman_auto_lambda(c.sigma_hat, c.frame_time);
+            if (s.param<KalmanParams>().lambda == 0)
+              s.edit<KalmanParams>().lambda = kalman_auto_lambda(c.sigma_hat, c.frame_time);
           },
       .run =
           [](const FilterSettings& s, const MotionIO& io, std::span<const std::uint8_t>) {
-            return KalmanJob{s.kalman, io}.run();
+            return KalmanJob{s.param<KalmanParams>(), io}.run();
           },
   };
 }
 
 MethodEntry none_entry() {
   return {
-      .method = Method::none,
       .name = "none",
       .help = "none: copy (checks the round trip)",
       .validate = nothing_to_check,
@@ -465,7 +469,6 @@ MethodEntry none_entry() {
 // auto: replaced per clip by the method choose_automatic picks (resolve_parameters).
 MethodEntry automatic_entry() {
   return {
-      .method = Method::automatic,
       .name = "auto",
       .help = "auto: the method and its parameters chosen per clip from its measured noise",
       .validate = nothing_to_check,
@@ -476,12 +479,16 @@ MethodEntry automatic_entry() {
   };
 }
 
-// In the order of the Method enum (method_entry indexes it); built on first use, so that no
-// static initializer depends on another file's.
+// A method's place here is its Method: the named ones first, in the enum's order; a new method
+// goes at the end. Built on first use, so that no static initializer depends on another file's.
+std::vector<MethodEntry> numbered(std::vector<MethodEntry> table) {
+  for (std::size_t i = 0; i < table.size(); ++i) table[i].method = Method(i);
+  return table;
+}
 const std::vector<MethodEntry>& entries() {
-  static const std::vector<MethodEntry> table = {
-      none_entry(),        bof_entry(),         nlpm_entry(),   gaussian_entry(),
-      butterworth_entry(), moving_mean_entry(), kalman_entry(), automatic_entry()};
+  static const std::vector<MethodEntry> table =
+      numbered({none_entry(), bof_entry(), nlpm_entry(), gaussian_entry(), butterworth_entry(),
+                moving_mean_entry(), kalman_entry(), automatic_entry()});
   return table;
 }
 
@@ -496,7 +503,7 @@ FilterSettings asked(Method method) {
 std::optional<FilterSettings> bof_point(const ParamPoint* point, double sigma_hat,
                                         double frame_time) {
   FilterSettings s = asked(Method::bof);
-  BilateralParams& p = s.bilateral;
+  BilateralParams& p = s.edit<BilateralParams>();
   if (!point) {
     p.sigma_g = p.sigma_t = 0;  // both automatic
     return s;
@@ -522,7 +529,7 @@ std::optional<FilterSettings> bof_point(const ParamPoint* point, double sigma_ha
 template <bool kRobust>
 std::optional<FilterSettings> nlpm_point(const ParamPoint* point, double sigma_hat, double) {
   FilterSettings s = asked(Method::nlpm);
-  NlpmParams& p = s.nlpm;
+  NlpmParams& p = s.edit<NlpmParams>();
   p.search_radius = int(value(point, "K", p.search_radius));
   p.patch_radius = int(value(point, "P", p.patch_radius));
   if (kRobust && !(sigma_hat > 0)) return std::nullopt;
@@ -543,17 +550,18 @@ std::optional<FilterSettings> nlpm_point(const ParamPoint* point, double sigma_h
 
 template <bool kRobust>
 json nlpm_used(const FilterSettings& s) {
-  json used = {{"h", s.nlpm.h},
-               {"K", s.nlpm.search_radius},
-               {"P", s.nlpm.patch_radius},
-               {"translation_sigma_t", s.nlpm.translation_sigma_t}};
-  if (kRobust) used["range_sigma"] = s.nlpm.range_sigma;
+  const NlpmParams n = s.param<NlpmParams>();
+  json used = {{"h", n.h},
+               {"K", n.search_radius},
+               {"P", n.patch_radius},
+               {"translation_sigma_t", n.translation_sigma_t}};
+  if (kRobust) used["range_sigma"] = n.range_sigma;
   return used;
 }
 
 std::optional<FilterSettings> linear_point(Method method, const ParamPoint* point) {
   FilterSettings s = asked(method);
-  LinearParams& p = s.linear;
+  LinearParams& p = s.edit<LinearParams>();
   p.sigma_t = value(point, "sigma_t", p.sigma_t);
   p.cutoff = value(point, "cutoff", p.cutoff);
   p.order = int(value(point, "order", p.order));
@@ -565,10 +573,11 @@ std::optional<FilterSettings> kalman_point(const ParamPoint* point, double sigma
                                            double frame_time) {
   FilterSettings s = asked(Method::kalman);
   if (has(point, "lambda")) {
-    s.kalman.lambda = value(point, "lambda", s.kalman.lambda);
+    s.edit<KalmanParams>().lambda = value(point, "lambda", 0);
   } else if (has(point, "lambda_scale")) {
     if (!(sigma_hat > 0)) return std::nullopt;
-    s.kalman.lambda = kalman_auto_lambda(sigma_hat, frame_time, value(point, "lambda_scale", 0));
+    s.edit<KalmanParams>().lambda =
+        kalman_auto_lambda(sigma_hat, frame_time, value(point, "lambda_scale", 0));
   }  // else 0: kalman_auto_lambda
   return s;
 }
@@ -597,9 +606,9 @@ const std::vector<EvalVariant>& variants() {
        .settings = bof_point,
        .used =
            [](const FilterSettings& s) {
-             return json{{"sigma_g", s.bilateral.sigma_g},
-                         {"sigma_t", s.bilateral.sigma_t},
-                         {"iterations", s.bilateral.iterations}};
+             const BilateralParams b = s.param<BilateralParams>();
+             return json{
+                 {"sigma_g", b.sigma_g}, {"sigma_t", b.sigma_t}, {"iterations", b.iterations}};
            },
        .reports = chose<Method::bof>},
       {.name = "nlpm",
@@ -620,7 +629,7 @@ const std::vector<EvalVariant>& variants() {
                       double) { return linear_point(Method::gaussian, point); },
        .used =
            [](const FilterSettings& s) {
-             return json{{"sigma_t", s.linear.sigma_t}};
+             return json{{"sigma_t", s.param<LinearParams>().sigma_t}};
            },
        .reports = chose<Method::gaussian>},
       {.name = "butterworth",
@@ -632,7 +641,8 @@ const std::vector<EvalVariant>& variants() {
                       double) { return linear_point(Method::butterworth, point); },
        .used =
            [](const FilterSettings& s) {
-             return json{{"cutoff", s.linear.cutoff}, {"order", s.linear.order}};
+             const LinearParams l = s.param<LinearParams>();
+             return json{{"cutoff", l.cutoff}, {"order", l.order}};
            },
        .reports = chose<Method::butterworth>},
       {.name = "moving-mean",
@@ -644,7 +654,7 @@ const std::vector<EvalVariant>& variants() {
                       double) { return linear_point(Method::moving_mean, point); },
        .used =
            [](const FilterSettings& s) {
-             return json{{"passes", s.linear.passes}};
+             return json{{"passes", s.param<LinearParams>().passes}};
            },
        .reports = chose<Method::moving_mean>},
       {.name = "kalman",
@@ -658,7 +668,7 @@ const std::vector<EvalVariant>& variants() {
        .settings = kalman_point,
        .used =
            [](const FilterSettings& s) {
-             return json{{"lambda", s.kalman.lambda}};
+             return json{{"lambda", s.param<KalmanParams>().lambda}};
            },
        .reports = chose<Method::kalman>},
       // Relative to the noise: h = 1.2 sigma_hat, as nlpm's rule.

@@ -70,9 +70,9 @@ struct MethodOption {
 };
 
 struct MethodEntry {
-  Method method = Method::none;
-  std::string_view name{};  // --method's name
-  std::string_view help{};  // its line in --method's help (empty: shares the line of another)
+  Method method = Method::none;  // its place in the table (set by the table, not by the entry)
+  std::string_view name{};       // --method's name
+  std::string_view help{};       // its line in --method's help (empty: shares the line of another)
   std::vector<MethodOption> options{};  // its parameters on the command line
   // Shards: joint blocks (per-joint methods, settings.shard_joints), or time blocks
   // (settings.shard_frames) for a method that reads whole poses.
@@ -113,9 +113,9 @@ Status run_method(const FilterSettings& settings, MotionIO io,
 // eval's methods: each runs an engine method from a grid point (or with the automatic parameters
 // the engine uses when none is given). nlpm-robust is nlpm with its range term.
 struct EvalVariant {
-  std::string_view name{};  // eval's --methods name
-  std::string_view note{};  // a word on it in eval's --help (empty: none)
-  Method method = Method::none;
+  std::string_view name{};       // eval's --methods name
+  std::string_view note{};       // a word on it in eval's --help (empty: none)
+  Method method = Method::none;  // a method without a name in Method: find_method("...")->method
   // The parameters a grid may name (README "eval"), and the default grid's axes.
   std::vector<std::string> parameters{};
   std::vector<GridAxis> axes{};

@@ -180,12 +180,12 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   // Measurable noise: bof, one pass at light noise, more at heavy noise.
   const FilterSettings light = engine::choose_automatic(s, 0.01);
   EXPECT_EQ(light.method, Method::bof);
-  EXPECT_EQ(light.bilateral.iterations, 1);
-  EXPECT_NEAR(light.bilateral.sigma_g, engine::kAutoSigmaGFactor * 0.01, 1e-12);
+  EXPECT_EQ(light.param<BilateralParams>().iterations, 1);
+  EXPECT_NEAR(light.param<BilateralParams>().sigma_g, engine::kAutoSigmaGFactor * 0.01, 1e-12);
   const FilterSettings high = engine::choose_automatic(s, 0.24);
   EXPECT_EQ(high.method, Method::bof);
-  EXPECT_EQ(high.bilateral.iterations, 4);
-  EXPECT_GT(high.bilateral.sigma_t, light.bilateral.sigma_t);
+  EXPECT_EQ(high.param<BilateralParams>().iterations, 4);
+  EXPECT_GT(high.param<BilateralParams>().sigma_t, light.param<BilateralParams>().sigma_t);
 
   Clip clip = test_clip(1, nullptr);
   s.pops = PopsMode::automatic;
@@ -194,11 +194,11 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   ASSERT_FALSE(resolved.unchanged);
   EXPECT_EQ(resolved.settings.method, Method::nlpm);  // jitter of 0.003 rad: a clean capture
   // At this light a noise auto's floors decide (engine/clip/filter_settings.hpp).
-  EXPECT_NEAR(resolved.settings.nlpm.h,
+  EXPECT_NEAR(resolved.settings.param<NlpmParams>().h,
               std::max(engine::kNlpmAutoFactor * resolved.noise_sigma, engine::kAutoNlpmMinH),
               1e-12);
   EXPECT_NEAR(
-      resolved.settings.nlpm.range_sigma,
+      resolved.settings.param<NlpmParams>().range_sigma,
       std::max(engine::kNlpmAutoRangeFactor * resolved.noise_sigma, engine::kAutoNlpmMinRange),
       1e-12);
   // The flipping joint is left out of the noise estimate: it stays near the added jitter.
@@ -334,8 +334,8 @@ TEST(Conditioning, SplitImpossibleFiltersEachSegmentAsAClipOfItsOwn) {
   for (Method method : {Method::bof, Method::nlpm, Method::gaussian}) {
     FilterSettings s;
     s.method = method;
-    s.bilateral.sigma_g = 0.1;
-    s.nlpm.h = 0.02;
+    s.edit<BilateralParams>().sigma_g = 0.1;
+    s.edit<NlpmParams>().h = 0.02;
     s.shard_frames = 64;  // nlpm's time blocks straddle nothing special: any block works
     s.split_impossible = true;
     const auto resolved = engine::resolve_for_clip(s, clip);
@@ -376,32 +376,38 @@ TEST(Conditioning, AutoSmoothingIsMonotoneInTheNoiseAndTheFrameRate) {
     for (double sigma = engine::kAutoCleanBelow; sigma <= 0.5; sigma *= 1.05) {
       const FilterSettings c = engine::choose_automatic(s, sigma, false, dt);
       ASSERT_EQ(c.method, Method::bof) << sigma;
-      EXPECT_GE(c.bilateral.iterations, 1);
-      EXPECT_LE(c.bilateral.iterations, 5);
+      EXPECT_GE(c.param<BilateralParams>().iterations, 1);
+      EXPECT_LE(c.param<BilateralParams>().iterations, 5);
       if (!first) {
-        EXPECT_LE(previous.bilateral.iterations, c.bilateral.iterations) << sigma << " " << fps;
+        EXPECT_LE(previous.param<BilateralParams>().iterations,
+                  c.param<BilateralParams>().iterations)
+            << sigma << " " << fps;
         // All passes together: width sigma_t sqrt(n) and range sigma_g sqrt(n) never shrink.
         const auto total = [](const BilateralParams& p, double v) {
           return v * std::sqrt(double(p.iterations));
         };
-        EXPECT_LE(total(previous.bilateral, previous.bilateral.sigma_t),
-                  total(c.bilateral, c.bilateral.sigma_t) + 1e-12)
+        EXPECT_LE(
+            total(previous.param<BilateralParams>(), previous.param<BilateralParams>().sigma_t),
+            total(c.param<BilateralParams>(), c.param<BilateralParams>().sigma_t) + 1e-12)
             << sigma << " " << fps;
-        EXPECT_LE(total(previous.bilateral, previous.bilateral.sigma_g),
-                  total(c.bilateral, c.bilateral.sigma_g) + 1e-12)
+        EXPECT_LE(
+            total(previous.param<BilateralParams>(), previous.param<BilateralParams>().sigma_g),
+            total(c.param<BilateralParams>(), c.param<BilateralParams>().sigma_g) + 1e-12)
             << sigma << " " << fps;
       }
       const FilterSettings slower = engine::choose_automatic(s, sigma, false, 2 * dt);
-      EXPECT_LE(slower.bilateral.sigma_t, c.bilateral.sigma_t) << sigma << " " << fps;
-      EXPECT_GE(slower.bilateral.sigma_t * 2 * dt, c.bilateral.sigma_t * dt - 1e-12)
+      EXPECT_LE(slower.param<BilateralParams>().sigma_t, c.param<BilateralParams>().sigma_t)
+          << sigma << " " << fps;
+      EXPECT_GE(slower.param<BilateralParams>().sigma_t * 2 * dt,
+                c.param<BilateralParams>().sigma_t * dt - 1e-12)
           << sigma << " " << fps;
       previous = c;
       first = false;
     }
   }
   // The noisy-positions branch ignores sigma_hat's size for its passes.
-  EXPECT_EQ(engine::choose_automatic(s, 0.01, true, 1.0 / 120).bilateral.iterations,
-            engine::choose_automatic(s, 0.2, true, 1.0 / 120).bilateral.iterations);
+  EXPECT_EQ(engine::choose_automatic(s, 0.01, true, 1.0 / 120).param<BilateralParams>().iterations,
+            engine::choose_automatic(s, 0.2, true, 1.0 / 120).param<BilateralParams>().iterations);
 }
 
 }  // namespace

@@ -510,32 +510,33 @@ TEST(AutomaticParameters, FollowTheEstimatedNoise) {
 
   engine::FilterSettings bof;
   bof.method = engine::Method::bof;
-  bof.bilateral.sigma_g = 0;
-  bof.bilateral.sigma_t = 0;
+  bof.edit<BilateralParams>().sigma_g = 0;
+  bof.edit<BilateralParams>().sigma_t = 0;
   ASSERT_TRUE(bof.validate().ok());
   const auto rb = engine::resolve_for_clip(bof, clip);
   EXPECT_DOUBLE_EQ(rb.noise_sigma, sigma_hat);
-  EXPECT_DOUBLE_EQ(rb.settings.bilateral.sigma_g, engine::kBofAutoSigmaGFactor * sigma_hat);
-  EXPECT_NEAR(rb.settings.bilateral.sigma_t,
+  EXPECT_DOUBLE_EQ(rb.settings.param<BilateralParams>().sigma_g,
+                   engine::kBofAutoSigmaGFactor * sigma_hat);
+  EXPECT_NEAR(rb.settings.param<BilateralParams>().sigma_t,
               std::max(1.0, engine::kBofAutoSigmaTFactor * std::sqrt(sigma_hat)), 1e-9);
   EXPECT_EQ(bof.to_json()["sigma_g"], "auto");
-  bof.bilateral.sigma_g = 0.2;  // given parameters stay as given
-  bof.bilateral.sigma_t = 1.5;
+  bof.edit<BilateralParams>().sigma_g = 0.2;  // given parameters stay as given
+  bof.edit<BilateralParams>().sigma_t = 1.5;
   const auto given = engine::resolve_for_clip(bof, clip);
-  EXPECT_EQ(given.settings.bilateral.sigma_g, 0.2);
-  EXPECT_EQ(given.settings.bilateral.sigma_t, 1.5);
+  EXPECT_EQ(given.settings.param<BilateralParams>().sigma_g, 0.2);
+  EXPECT_EQ(given.settings.param<BilateralParams>().sigma_t, 1.5);
 
   engine::FilterSettings nlpm;
   nlpm.method = engine::Method::nlpm;
-  EXPECT_DOUBLE_EQ(engine::resolve_for_clip(nlpm, clip).settings.nlpm.h,
+  EXPECT_DOUBLE_EQ(engine::resolve_for_clip(nlpm, clip).settings.param<NlpmParams>().h,
                    engine::kNlpmAutoFactor * sigma_hat);
 
   engine::FilterSettings kalman;
   kalman.method = engine::Method::kalman;
   ASSERT_TRUE(kalman.validate().ok());
-  EXPECT_DOUBLE_EQ(engine::resolve_for_clip(kalman, clip).settings.kalman.lambda,
+  EXPECT_DOUBLE_EQ(engine::resolve_for_clip(kalman, clip).settings.param<KalmanParams>().lambda,
                    kalman_auto_lambda(sigma_hat, clip.frame_time));
-  kalman.kalman.lambda = -1;
+  kalman.edit<KalmanParams>().lambda = -1;
   EXPECT_FALSE(kalman.validate().ok());
   EXPECT_EQ(engine::parse_method("kalman"), engine::Method::kalman);
 }

@@ -25,15 +25,49 @@ TEST(MethodTable, EveryMethodIsRegisteredOnceUnderItsName) {
   std::set<std::string_view> names;
   for (std::size_t i = 0; i < method_entries().size(); ++i) {
     const MethodEntry& e = method_entries()[i];
-    EXPECT_EQ(std::size_t(e.method), i) << e.name << ": the table follows the Method enum";
+    EXPECT_EQ(std::size_t(e.method), i) << e.name << ": a method is its place in the table";
     EXPECT_TRUE(names.insert(e.name).second) << e.name << " registered twice";
     ASSERT_TRUE(parse_method(e.name)) << e.name;
     EXPECT_EQ(*parse_method(e.name), e.method);
     EXPECT_EQ(to_string(e.method), e.name);
     EXPECT_TRUE(e.validate && e.to_json && e.needs_noise && e.resolve && e.run) << e.name;
   }
-  EXPECT_EQ(names.size(), std::size_t(Method::automatic) + 1);  // the last enumerator
+  EXPECT_GE(names.size(), std::size_t(Method::automatic) + 1);  // the last named one
   EXPECT_FALSE(parse_method("bilateral"));
+  // The methods the engine's rules name are the table's first entries, in the enum's order.
+  const std::pair<Method, std::string_view> named[] = {{Method::none, "none"},
+                                                       {Method::bof, "bof"},
+                                                       {Method::nlpm, "nlpm"},
+                                                       {Method::gaussian, "gaussian"},
+                                                       {Method::butterworth, "butterworth"},
+                                                       {Method::moving_mean, "moving-mean"},
+                                                       {Method::kalman, "kalman"},
+                                                       {Method::automatic, "auto"}};
+  for (const auto& [method, name] : named) EXPECT_EQ(to_string(method), name);
+}
+
+TEST(MethodTable, SettingsKeepEachMethodsParametersByType) {
+  FilterSettings s;
+  // Unset: the kernel's defaults, or the engine's where they differ (nlpm's translations).
+  EXPECT_EQ(s.param<BilateralParams>().sigma_g, BilateralParams{}.sigma_g);
+  EXPECT_EQ(s.param<NlpmParams>().translation_sigma_t, kAutomaticTranslationSigma);
+  EXPECT_NE(NlpmParams{}.translation_sigma_t, kAutomaticTranslationSigma);
+  BilateralParams& b = s.edit<BilateralParams>();
+  b.sigma_g = 0.3;
+  s.edit<NlpmParams>().h = 0.07;  // another type added: `b` still refers to bof's
+  s.edit<KalmanParams>().lambda = 2e-3;
+  b.iterations = 2;
+  EXPECT_EQ(s.param<BilateralParams>().sigma_g, 0.3);
+  EXPECT_EQ(s.param<BilateralParams>().iterations, 2);
+  EXPECT_EQ(s.param<NlpmParams>().h, 0.07);
+  EXPECT_EQ(s.param<NlpmParams>().translation_sigma_t, kAutomaticTranslationSigma);
+  EXPECT_EQ(s.param<KalmanParams>().lambda, 2e-3);
+  // A copy owns its parameters.
+  FilterSettings copy = s;
+  copy.edit<BilateralParams>().sigma_g = 0.1;
+  EXPECT_EQ(s.param<BilateralParams>().sigma_g, 0.3);
+  EXPECT_EQ(copy.param<BilateralParams>().sigma_g, 0.1);
+  EXPECT_EQ(copy.param<NlpmParams>().h, 0.07);
 }
 
 TEST(MethodTable, ProvenanceAndValidationGoThroughTheEntry) {
@@ -50,14 +84,14 @@ TEST(MethodTable, ProvenanceAndValidationGoThroughTheEntry) {
   }
   FilterSettings bof;
   bof.method = Method::bof;
-  bof.bilateral.sigma_g = 0;  // automatic: valid, recorded as such
+  bof.edit<BilateralParams>().sigma_g = 0;  // automatic: valid, recorded as such
   EXPECT_TRUE(bof.validate().ok());
   EXPECT_EQ(bof.to_json().at("sigma_g"), "auto");
-  bof.bilateral.iterations = 0;
+  bof.edit<BilateralParams>().iterations = 0;
   EXPECT_FALSE(bof.validate().ok());
   FilterSettings butterworth;
   butterworth.method = Method::butterworth;
-  butterworth.linear.order = 9;  // the entry checks butterworth's own parameters
+  butterworth.edit<LinearParams>().order = 9;  // the entry checks butterworth's own parameters
   EXPECT_FALSE(butterworth.validate().ok());
   butterworth.method = Method::gaussian;
   EXPECT_TRUE(butterworth.validate().ok());
@@ -185,7 +219,8 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
   auto with = [](Method method, auto&& change) {
     FilterSettings s;
     s.method = method;
-    s.bilateral.sigma_g = s.bilateral.sigma_t = 0;  // automatic, as eval's bof without a point
+    s.edit<BilateralParams>().sigma_g = s.edit<BilateralParams>().sigma_t =
+        0;  // automatic, as eval's bof without a point
     change(s);
     return s;
   };
@@ -196,30 +231,30 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
        {{"sigma_g", 0.1}, {"sigma_t", 2}, {"iterations", 3}},
        with(Method::bof,
             [](FilterSettings& s) {
-              s.bilateral.sigma_g = 0.1;
-              s.bilateral.sigma_t = 2;
-              s.bilateral.iterations = 3;
+              s.edit<BilateralParams>().sigma_g = 0.1;
+              s.edit<BilateralParams>().sigma_t = 2;
+              s.edit<BilateralParams>().iterations = 3;
             })},
       {"nlpm", {}, with(Method::nlpm, keep)},
       {"nlpm",
        {{"h", 0.05}, {"K", 6}},
        with(Method::nlpm,
             [](FilterSettings& s) {
-              s.nlpm.h = 0.05;
-              s.nlpm.search_radius = 6;
+              s.edit<NlpmParams>().h = 0.05;
+              s.edit<NlpmParams>().search_radius = 6;
             })},
       {"nlpm-robust", {}, with(Method::nlpm, [](FilterSettings& s) { s.nlpm_range = -1; })},
       {"gaussian",
        {{"sigma_t", 2}},
-       with(Method::gaussian, [](FilterSettings& s) { s.linear.sigma_t = 2; })},
+       with(Method::gaussian, [](FilterSettings& s) { s.edit<LinearParams>().sigma_t = 2; })},
       {"butterworth", {}, with(Method::butterworth, keep)},
       {"moving-mean",
        {{"passes", 3}},
-       with(Method::moving_mean, [](FilterSettings& s) { s.linear.passes = 3; })},
+       with(Method::moving_mean, [](FilterSettings& s) { s.edit<LinearParams>().passes = 3; })},
       {"kalman", {}, with(Method::kalman, keep)},
       {"kalman",
        {{"lambda", 1e-3}},
-       with(Method::kalman, [](FilterSettings& s) { s.kalman.lambda = 1e-3; })},
+       with(Method::kalman, [](FilterSettings& s) { s.edit<KalmanParams>().lambda = 1e-3; })},
       {"auto", {}, with(Method::automatic, keep)},
   };
   // Rotation noise (rad), position noise (body heights), and the method auto must choose.
@@ -248,19 +283,19 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
         auto_smooth += resolved.noisy_positions;
       }
       if (s.method == Method::bof) {
-        EXPECT_EQ(used.at("sigma_g"), s.bilateral.sigma_g);
-        EXPECT_EQ(used.at("sigma_t"), s.bilateral.sigma_t);
-        EXPECT_EQ(used.at("iterations"), s.bilateral.iterations);
+        EXPECT_EQ(used.at("sigma_g"), s.param<BilateralParams>().sigma_g);
+        EXPECT_EQ(used.at("sigma_t"), s.param<BilateralParams>().sigma_t);
+        EXPECT_EQ(used.at("iterations"), s.param<BilateralParams>().iterations);
       }
       if (s.method == Method::nlpm) {
-        EXPECT_EQ(used.at("h"), s.nlpm.h);
-        EXPECT_EQ(used.at("translation_sigma_t"), s.nlpm.translation_sigma_t);
+        EXPECT_EQ(used.at("h"), s.param<NlpmParams>().h);
+        EXPECT_EQ(used.at("translation_sigma_t"), s.param<NlpmParams>().translation_sigma_t);
         if (s.nlpm_range != 0) {
-          EXPECT_EQ(used.at("range_sigma"), s.nlpm.range_sigma);
+          EXPECT_EQ(used.at("range_sigma"), s.param<NlpmParams>().range_sigma);
         }
       }
       if (s.method == Method::kalman) {
-        EXPECT_EQ(used.at("lambda"), s.kalman.lambda);
+        EXPECT_EQ(used.at("lambda"), s.param<KalmanParams>().lambda);
       }
     }
   }
