@@ -107,7 +107,7 @@ FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat
     n = NlpmParams{};
     n.boundary = asked.boundary;
     n.translation_sigma_t = asked.translation_sigma_t;
-    s.nlpm_range = -1;  // automatic: kNlpmAutoRangeFactor sigma_hat
+    n.range_sigma = -1;  // automatic: kNlpmAutoRangeFactor sigma_hat
   } else {
     s.method = Method::bof;
     BilateralParams& b = s.edit<BilateralParams>();
@@ -125,8 +125,6 @@ FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat
 Status FilterSettings::validate() const {
   if (shard_joints < 1) return Status::error("shard joints must be >= 1");
   if (shard_frames < 1) return Status::error("shard frames must be >= 1");
-  if (!std::isfinite(nlpm_range))
-    return Status::error("nlpm's range sigma must be finite (0 = off, < 0 = automatic)");
   return method_entry(method).validate(*this);
 }
 

@@ -129,7 +129,6 @@ struct FilterSettings {
   // it was read with keeps the input instead (engine/clip/motion_guard.hpp). --guard on|off; on
   // by default with --method auto only.
   bool guard_motion = false;
-  double nlpm_range = 0;  // nlpm's range_sigma: 0 off, < 0 automatic, > 0 given (rad)
   // Filter each segment between physically impossible steps (kernels/motion_split.hpp: CMU's
   // synthetic T-pose frame 0) as a clip of its own.
   bool split_impossible = false;
@@ -143,7 +142,8 @@ struct FilterSettings {
   // Each method's parameters, as its kernel's Params struct (BilateralParams, NlpmParams, ...),
   // kept by type: the table of methods reads and sets them, so a method's parameters need no
   // member here. param<P>() is default_params<P>() until edit<P>() sets it. Automatic markers:
-  // bof's sigma_g, sigma_t == 0, nlpm's h == 0 and translation_sigma_t < 0, kalman's lambda == 0
+  // bof's sigma_g, sigma_t == 0, nlpm's h == 0 and range_sigma, translation_sigma_t < 0, kalman's
+  // lambda == 0
   // are resolved per clip (the table's `resolve`).
   template <class P>
   P param() const;

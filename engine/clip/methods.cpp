@@ -174,7 +174,8 @@ MethodEntry bof_entry() {
 // nlpm (kernels/nlpm.hpp): h = 0 and a range < 0 ask for the noise; translation_sigma_t < 0 for
 // automatic_translation_sigma_t.
 bool nlpm_needs_noise(const FilterSettings& s) {
-  return s.param<NlpmParams>().h == 0 || s.nlpm_range < 0;
+  const NlpmParams n = s.param<NlpmParams>();
+  return n.h == 0 || n.range_sigma < 0;
 }
 
 MethodEntry nlpm_entry() {
@@ -239,7 +240,9 @@ MethodEntry nlpm_entry() {
                    .implausible_why = "no joint can disagree by more than pi",
                    .apply =
                        [](FilterSettings& s, double, const std::string& w) {
-                         s.nlpm_range = w == "off" ? 0.0 : w == "auto" ? -1.0 : std::stod(w);
+                         s.edit<NlpmParams>().range_sigma = w == "off"    ? 0.0
+                                                            : w == "auto" ? -1.0
+                                                                          : std::stod(w);
                        }},
                   {.flags = "--translation-sigma-t",
                    .help = "nlpm: Gaussian width in frames for the position channels (pose "
@@ -265,7 +268,10 @@ MethodEntry nlpm_entry() {
       .validate =
           [](const FilterSettings& s) {
             NlpmParams p = s.param<NlpmParams>();
+            if (!std::isfinite(p.range_sigma))
+              return Status::error("nlpm's range sigma must be finite (0 = off, < 0 = automatic)");
             if (p.h == 0) p.h = 1;  // automatic: checked per clip
+            if (p.range_sigma < 0) p.range_sigma = 0;
             if (p.translation_sigma_t < 0) p.translation_sigma_t = 0;
             return p.validate();
           },
@@ -276,7 +282,7 @@ MethodEntry nlpm_entry() {
             j["patch_radius"] = n.patch_radius;
             j["h"] = or_auto(n.h, n.h == 0);
             j["space"] = n.space == NlpmSpace::log ? "log" : "tangent";
-            j["range_sigma"] = or_auto(s.nlpm_range, s.nlpm_range < 0);
+            j["range_sigma"] = or_auto(n.range_sigma, n.range_sigma < 0);
             j["translation_sigma_t"] = or_auto(n.translation_sigma_t, n.translation_sigma_t < 0);
             j["boundary"] = std::string(to_string(n.boundary));
           },
@@ -285,12 +291,12 @@ MethodEntry nlpm_entry() {
           [](FilterSettings& s, const NoiseContext& c) {
             NlpmParams& n = s.edit<NlpmParams>();
             if (n.h == 0) n.h = kNlpmAutoFactor * c.sigma_hat;
-            if (s.nlpm_range < 0) s.nlpm_range = kNlpmAutoRangeFactor * c.sigma_hat;
+            if (n.range_sigma < 0) n.range_sigma = kNlpmAutoRangeFactor * c.sigma_hat;
             if (c.automatic) {
               n.h = std::max(n.h, kAutoNlpmMinH);
-              s.nlpm_range = std::max(s.nlpm_range, kAutoNlpmMinRange);
+              n.range_sigma = std::max(n.range_sigma, kAutoNlpmMinRange);
             }
-            n.range_sigma = std::max(0.0, s.nlpm_range);
+            n.range_sigma = std::max(0.0, n.range_sigma);
             if (n.translation_sigma_t < 0)
               n.translation_sigma_t =
                   automatic_translation_sigma_t(c.translation_noise(), c.frame_time, c.body_height);
@@ -540,9 +546,9 @@ std::optional<FilterSettings> nlpm_point(const ParamPoint* point, double sigma_h
     p.h = value(point, "h_factor", kNlpmAutoFactor) * sigma_hat;
   }  // else 0: kNlpmAutoFactor sigma_hat
   if (kRobust && has(point, "range_factor"))
-    s.nlpm_range = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
+    p.range_sigma = value(point, "range_factor", kNlpmAutoRangeFactor) * sigma_hat;
   else if (kRobust)
-    s.nlpm_range = -1;  // kNlpmAutoRangeFactor sigma_hat
+    p.range_sigma = -1;  // kNlpmAutoRangeFactor sigma_hat
   if (has(point, "translation_sigma_t"))
     p.translation_sigma_t = value(point, "translation_sigma_t", 0);
   return s;
@@ -619,7 +625,9 @@ const std::vector<EvalVariant>& variants() {
        .settings = nlpm_point<false>,
        .used = nlpm_used<false>,
        .reports =
-           [](const FilterSettings& s) { return s.method == Method::nlpm && s.nlpm_range == 0; }},
+           [](const FilterSettings& s) {
+             return s.method == Method::nlpm && s.param<NlpmParams>().range_sigma == 0;
+           }},
       {.name = "gaussian",
        .method = Method::gaussian,
        .parameters = {"sigma_t"},
@@ -685,7 +693,9 @@ const std::vector<EvalVariant>& variants() {
        .settings = nlpm_point<true>,
        .used = nlpm_used<true>,
        .reports =
-           [](const FilterSettings& s) { return s.method == Method::nlpm && s.nlpm_range != 0; }},
+           [](const FilterSettings& s) {
+             return s.method == Method::nlpm && s.param<NlpmParams>().range_sigma != 0;
+           }},
       // No grid: the automatic choice only; its runs are reported as the variant it chose.
       {.name = "auto",
        .note = "--method auto",

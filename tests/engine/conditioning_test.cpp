@@ -176,7 +176,7 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   // No noise to speak of (a clean capture): the floored nlpm with its range term.
   const FilterSettings low = engine::choose_automatic(s, 0.002);
   EXPECT_EQ(low.method, Method::nlpm);
-  EXPECT_LT(low.nlpm_range, 0);  // automatic: resolved from sigma_hat
+  EXPECT_LT(low.param<NlpmParams>().range_sigma, 0);  // automatic: resolved from sigma_hat
   // Measurable noise: bof, one pass at light noise, more at heavy noise.
   const FilterSettings light = engine::choose_automatic(s, 0.01);
   EXPECT_EQ(light.method, Method::bof);

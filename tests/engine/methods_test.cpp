@@ -243,7 +243,9 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
               s.edit<NlpmParams>().h = 0.05;
               s.edit<NlpmParams>().search_radius = 6;
             })},
-      {"nlpm-robust", {}, with(Method::nlpm, [](FilterSettings& s) { s.nlpm_range = -1; })},
+      {"nlpm-robust",
+       {},
+       with(Method::nlpm, [](FilterSettings& s) { s.edit<NlpmParams>().range_sigma = -1; })},
       {"gaussian",
        {{"sigma_t", 2}},
        with(Method::gaussian, [](FilterSettings& s) { s.edit<LinearParams>().sigma_t = 2; })},
@@ -290,7 +292,7 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
       if (s.method == Method::nlpm) {
         EXPECT_EQ(used.at("h"), s.param<NlpmParams>().h);
         EXPECT_EQ(used.at("translation_sigma_t"), s.param<NlpmParams>().translation_sigma_t);
-        if (s.nlpm_range != 0) {
+        if (s.param<NlpmParams>().range_sigma != 0) {
           EXPECT_EQ(used.at("range_sigma"), s.param<NlpmParams>().range_sigma);
         }
       }
