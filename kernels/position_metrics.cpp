@@ -94,4 +94,13 @@ void add_skating(TensorView<const float, 3> positions, int point,
     }
 }
 
+int score_edge_frames(int frames, double frame_time) {
+  return std::min(int(std::ceil(kScoreEdgeSeconds / frame_time)), frames / 4);
+}
+
+FrameRange scored_frames(int begin, int end, double frame_time) {
+  const int edge = score_edge_frames(end - begin, frame_time);
+  return {begin + edge, end - edge};
+}
+
 }  // namespace mocap

@@ -39,6 +39,13 @@ struct FrameRange {
   int first = 0, last = 0;  // [first, last)
 };
 
+// Frames left out at each end of a span for the position scores (spec "Metrics": the boundary
+// extension dominates there), at most a quarter of the span; eval and the motion check of
+// clean/filter both score [begin, end) so.
+inline constexpr double kScoreEdgeSeconds = 0.1;
+int score_edge_frames(int frames, double frame_time);
+FrameRange scored_frames(int begin, int end, double frame_time);
+
 // |P_r - P_g| summed over the range; the shapes must agree.
 void add_position_error(TensorView<const float, 3> result, TensorView<const float, 3> truth,
                         FrameRange range, PositionSums& sums);

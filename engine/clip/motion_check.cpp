@@ -30,14 +30,10 @@ MotionMeasure measure_motion(const Clip& clip, const MotionMeasure* input,
   const TensorView<const float, 3> p{positions.data(), clip.frames, clip.joints()};
   const Segment whole{0, clip.frames};
   if (segments.empty()) segments = {&whole, 1};
-  const int edge = int(std::ceil(kEdgeSeconds / clip.frame_time));
-  m.edge_frames = std::min(edge, clip.frames / 4);
+  m.edge_frames = score_edge_frames(clip.frames, clip.frame_time);
   std::vector<FrameRange> ranges;
   for (const Segment& s : segments)
-    if (s.frames() >= 3) {
-      const int e = std::min(edge, s.frames() / 4);
-      ranges.push_back({s.begin + e, s.end - e});
-    }
+    if (s.frames() >= 3) ranges.push_back(scored_frames(s.begin, s.end, clip.frame_time));
   PositionSums sums;
   for (const FrameRange& range : ranges) add_jitter(p, range, sums);
   m.jitter = sums.jitter_n > 0 ? sums.jitter() : 0.0;

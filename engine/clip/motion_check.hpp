@@ -19,8 +19,6 @@ namespace mocap::engine {
 // A clip "got worse" above these ratios (issue targets: jitter 1.05x; skating 1.25x).
 inline constexpr double kJitterWorse = 1.05;
 inline constexpr double kSkatingWorse = 1.25;
-// Frames left out at each end: the boundary extension dominates there (spec "Metrics").
-inline constexpr double kEdgeSeconds = 0.1;
 
 struct MotionMeasure {
   double jitter = 0;   // RMS second difference of all joint positions, file units / frame^2

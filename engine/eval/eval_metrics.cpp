@@ -240,12 +240,6 @@ void in_mm(PositionSums& p, double mm) {
   p.skate *= mm;
 }
 
-// The frames of a segment the position scores cover.
-FrameRange scored_range(const Segment& s, double frame_time) {
-  const int edge = std::min(int(std::ceil(kEvalEdgeSeconds / frame_time)), s.frames() / 4);
-  return {s.begin + edge, s.end - edge};
-}
-
 void add_position_scores(const Clip& clean, const ClipGeometry& geometry,
                          const ClipReference& reference, const std::vector<Segment>& segments,
                          const std::vector<float>& positions, bool against_truth,
@@ -254,7 +248,7 @@ void add_position_scores(const Clip& clean, const ClipGeometry& geometry,
   const TensorView<const float, 3> g{reference.positions.data(), clean.frames, clean.joints()};
   for (const Segment& seg : segments) {
     if (seg.frames() < 3) continue;
-    const FrameRange range = scored_range(seg, clean.frame_time);
+    const FrameRange range = scored_frames(seg.begin, seg.end, clean.frame_time);
     if (against_truth) {
       add_position_error(p, g, range, sums);
       add_acceleration_error(p, g, range, sums);

@@ -83,8 +83,8 @@ struct Score {
   // pooled clips.
   double knee_peak_ratio = 0;
   // Joint positions of every joint (spec "Metrics"), in mm, over the scored frames of each segment
-  // less kEvalEdgeSeconds at its ends: MPJPE, jitter, acceleration error, and skating over the
-  // clean clip's foot contacts.
+  // less kScoreEdgeSeconds at its ends (kernels/position_metrics.hpp): MPJPE, jitter, acceleration
+  // error, and skating over the clean clip's foot contacts.
   PositionSums positions;
 
   void add(const Score& other);
@@ -99,10 +99,6 @@ struct Score {
   double accel_error_mm() const;  // mm per frame^2
   double skating_mm() const;      // mm per frame over the clean clip's contact frames
 };
-
-// Frames left out at each end of a segment for the position scores (spec "Metrics": the boundary
-// extension dominates there), at most a quarter of the segment.
-inline constexpr double kEvalEdgeSeconds = 0.1;
 
 // What the scores compare against, computed once from the clean clip.
 struct ClipReference {

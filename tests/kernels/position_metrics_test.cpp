@@ -217,4 +217,17 @@ TEST(PositionMetrics, KnownErrorsJitterAndSkating) {
 }
 
 }  // namespace
+TEST(PositionMetrics, ScoredFramesLeaveOutATenthOfASecondAtMostAQuarter) {
+  const FrameRange at120 = scored_frames(0, 600, 1.0 / 120);
+  EXPECT_EQ(at120.first, 12);
+  EXPECT_EQ(at120.last, 588);
+  const FrameRange at30 = scored_frames(100, 400, 1.0 / 30);
+  EXPECT_EQ(at30.first, 103);
+  EXPECT_EQ(at30.last, 397);
+  const FrameRange short_span = scored_frames(10, 30, 1.0 / 120);  // 20 frames: a quarter is 5
+  EXPECT_EQ(short_span.first, 15);
+  EXPECT_EQ(short_span.last, 25);
+  EXPECT_EQ(score_edge_frames(3, 1.0 / 120), 0);
+}
+
 }  // namespace mocap
