@@ -44,4 +44,20 @@ struct Clip {
   TranslationSpan translation_span() { return {translations.data(), frames, joints()}; }
 };
 
+// A clip with `like`'s skeleton and timing and the given values, without source, Euler angles or
+// provenance: the lean copy the motion measures, the guard and the foot stage work on.
+inline Clip with_motion(const Clip& like, std::vector<float> rotations,
+                        std::vector<float> translations) {
+  Clip c;
+  c.skeleton = like.skeleton;
+  c.frame_time = like.frame_time;
+  c.frames = like.frames;
+  c.rotations = std::move(rotations);
+  c.translations = std::move(translations);
+  return c;
+}
+inline Clip motion_copy(const Clip& clip) {
+  return with_motion(clip, clip.rotations, clip.translations);
+}
+
 }  // namespace mocap

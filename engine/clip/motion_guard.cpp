@@ -49,13 +49,7 @@ Status MotionGuardJob::run() {
   };
 
   Clip filtered;  // the unlocked candidate, in case it is needed
-  if (feet && guard) {
-    filtered.skeleton = output->skeleton;
-    filtered.frame_time = output->frame_time;
-    filtered.frames = output->frames;
-    filtered.rotations = output->rotations;
-    filtered.translations = output->translations;
-  }
+  if (feet && guard) filtered = motion_copy(*output);
   kept = feet ? Kept::filtered_locked : Kept::filtered;
   if (feet)
     if (Status s = lock(*output); !s) return s;

@@ -45,20 +45,9 @@ nlohmann::json feet_json(const ClipFeet& feet) {
 }
 
 // The feet of a noisy clip: its rotations and translations on the clean clip's skeleton.
-// The clean clip's skeleton and timing with other values.
-Clip with_values(const Clip& clean, std::vector<float> rotations, std::vector<float> translations) {
-  Clip c;
-  c.skeleton = clean.skeleton;
-  c.frame_time = clean.frame_time;
-  c.frames = clean.frames;
-  c.rotations = std::move(rotations);
-  c.translations = std::move(translations);
-  return c;
-}
-
 ClipFeet noisy_feet(const Clip& clean, const std::vector<float>& rotations,
                     const std::vector<float>& translations) {
-  return detect_feet(with_values(clean, rotations, translations));
+  return detect_feet(with_motion(clean, rotations, translations));
 }
 
 }  // namespace
@@ -164,9 +153,9 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
     }
   }
   if (guard) {
-    Clip filtered = with_values(clip.clean, std::move(out), std::move(out_translations));
-    const Clip in = with_values(clip.clean, input, noisy.translations);
-    const Clip raw = with_values(clip.clean, noisy.rotations, noisy.translations);
+    Clip filtered = with_motion(clip.clean, std::move(out), std::move(out_translations));
+    const Clip in = with_motion(clip.clean, input, noisy.translations);
+    const Clip raw = with_motion(clip.clean, noisy.rotations, noisy.translations);
     ClipFeet feet = repaired ? noisy.repaired_feet : noisy.feet;
     MotionGuardJob g;
     g.input = &in;
@@ -186,12 +175,7 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
     return {};
   }
   if (!lock_feet) return {};
-  Clip filtered;
-  filtered.skeleton = clip.clean.skeleton;
-  filtered.frame_time = clip.clean.frame_time;
-  filtered.frames = clip.clean.frames;
-  filtered.rotations = std::move(out);
-  filtered.translations = std::move(out_translations);
+  Clip filtered = with_motion(clip.clean, std::move(out), std::move(out_translations));
   ClipFeet feet = repaired ? noisy.repaired_feet : noisy.feet;
   const Status locked = lock_feet_in_segments(feet, filtered, clip.segments);
   out = std::move(filtered.rotations);
@@ -260,7 +244,7 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
           noisy.repaired_feet = noisy_feet(clip.clean, noisy.repaired, noisy.translations);
       }
       if (config.guard)
-        noisy.before = measure_motion(with_values(clip.clean, noisy.rotations, noisy.translations),
+        noisy.before = measure_motion(with_motion(clip.clean, noisy.rotations, noisy.translations),
                                       nullptr, clip.segments);
       r.noisy_scores[c][k] =
           score_clip(clip.clean, clip.geometry, clip.reference, clip.segments,

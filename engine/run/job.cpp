@@ -114,13 +114,7 @@ RunSummary run_job(const Job& job) {
     // The clip as read, measured once the segments are known (after resolve), and the guard's
     // last resort.
     Clip raw;
-    if (measure) {
-      raw.skeleton = item.input.skeleton;
-      raw.frame_time = item.input.frame_time;
-      raw.frames = item.input.frames;
-      raw.rotations = item.input.rotations;
-      raw.translations = item.input.translations;
-    }
+    if (measure) raw = motion_copy(item.input);
     ReviewCapture review;
     if (job.review) {
       const Timed timed(times, StageTimes::review);
