@@ -57,6 +57,7 @@
 #include "core/status.hpp"
 #include "core/tensor.hpp"
 #include "kernels/foot_contacts.hpp"
+#include "kernels/implementation.hpp"
 
 namespace mocap {
 
@@ -104,6 +105,9 @@ struct FootLockJob {
   // knee's speed limit does not hold across it.
   std::span<const std::uint8_t> counted_steps;
   FootLockStats* stats = nullptr;  // optional, written
+  // fast: the touched frames as planes through kernels/simd/foot_lock_simd.hpp (the same steps;
+  // its rounding differs from the reference's, the scalar path below each step's formula).
+  Implementation implementation = Implementation::fast;
 
   // Sizes agree, legs are hip -> knee -> ankle (-> toe) chains, no joint in two legs, one
   // contact list per leg, intervals ordered and disjoint within one list.
