@@ -235,8 +235,8 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   }
   // All planes in one block, left uninitialized but for their padding lanes (every kernel and
   // loop below writes lanes [0, n) before they are read): zeroing it cost as much as the IK.
-  constexpr std::size_t kPerLeg = 22, kShared = 7 + 4 + 3 + 1 + 1 + 1 + 3 + 12;
-  const std::size_t total = (7 * needed.size() + kPerLeg * leg_count + kShared) * stride;
+  constexpr std::size_t kPerLeg = 22, kShared = 7 + 3 + 1 + 1 + 1 + 3 + 12;
+  const std::size_t total = (11 * needed.size() + kPerLeg * leg_count + kShared) * stride;
   const std::unique_ptr<double[]> block(new double[total]);
   std::size_t used = 0;
   auto take = [&](std::size_t count) {
@@ -250,7 +250,7 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   double* const identity = take(7);
   std::fill(identity, identity + 7 * stride, 0.0);
   std::fill(identity, identity + stride, 1.0);
-  double* const q = take(4);
+  double* const qs = take(4 * needed.size());  // the local rotations
   double* const local = take(3);
 
   // Forward kinematics, one joint at a time over all touched frames.
@@ -258,14 +258,17 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
     return j < 0 ? identity : global + std::size_t(slot[std::size_t(j)]) * 7 * stride;
   };
   auto pos = [&](int j) { return rot(j) + 4 * stride; };
-  for (int j : needed) {
-    for (std::size_t i = 0; i < n; ++i) {
-      const float* r = rotations.at(frame_of[i], j);
-      q[i] = r[0];
-      q[stride + i] = r[1];
-      q[2 * stride + i] = r[2];
-      q[3 * stride + i] = r[3];
+  auto local_rotation = [&](int j) { return qs + std::size_t(slot[std::size_t(j)]) * 4 * stride; };
+  for (std::size_t i = 0; i < n; ++i)  // frame by frame: a frame's joints share cache lines
+    for (std::size_t s = 0; s < needed.size(); ++s) {
+      const float* r = rotations.at(frame_of[i], needed[s]);
+      double* q = qs + s * 4 * stride + i;
+      q[0] = r[0];
+      q[stride] = r[1];
+      q[2 * stride] = r[2];
+      q[3 * stride] = r[3];
     }
+  for (int j : needed) {
     const bool moved = translated(j);
     if (moved)
       for (std::size_t i = 0; i < n; ++i) {
@@ -273,8 +276,8 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
         for (std::size_t k = 0; k < 3; ++k) local[k * stride + i] = p[k];
       }
     const int p = parents[std::size_t(j)];
-    simd::chain_step(rot(p), pos(p), q, moved ? local : nullptr, job.offsets[std::size_t(j)],
-                     rot(j), pos(j), n, stride);
+    simd::chain_step(rot(p), pos(p), local_rotation(j), moved ? local : nullptr,
+                     job.offsets[std::size_t(j)], rot(j), pos(j), n, stride);
   }
   auto point = [&](int j, std::size_t i) {
     const double* p = pos(j);
@@ -325,9 +328,37 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   std::vector<int> root(leg_count);
   for (std::size_t l = 0; l < leg_count; ++l) root[l] = top_ancestor(parents, chains[l].hip);
   double knee_speed_limit = job.params.max_knee_speed;
-  if (knee_speed_limit == 0)
-    knee_speed_limit = peak_knee_speed({rotations.data, rotations.frames, rotations.joints}, chains,
-                                       job.frame_time, job.counted_steps);
+  // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's, from the planes where touched).
+  std::vector<std::vector<double>> knee_cos(leg_count,
+                                            std::vector<double>(std::size_t(frames), 1.0));
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    const int knee = chains[l].knee;
+    const double* kq = local_rotation(knee);
+    auto quat_at = [&](int t) {
+      const int i = index_of[std::size_t(t)];
+      return i >= 0 ? Quat{kq[i], kq[stride + std::size_t(i)], kq[2 * stride + std::size_t(i)],
+                           kq[3 * stride + std::size_t(i)]}
+                    : load_quat(rotations.at(t, knee));
+    };
+    std::vector<double>& c = knee_cos[l];
+    Quat before = quat_at(0);
+    for (int t = 1; t < frames; ++t) {
+      const Quat now = quat_at(t);
+      if (job.counted_steps.empty() || job.counted_steps[std::size_t(t)])
+        c[std::size_t(t)] = std::abs(dot(before, now));
+      before = now;
+    }
+  }
+  if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos
+    double smallest = 1;
+    for (const std::vector<double>& c : knee_cos)
+      for (int t = 1; t < frames; ++t) {
+        const double prev = t > 1 ? c[std::size_t(t - 1)] : 1.0,
+                     next = t + 1 < frames ? c[std::size_t(t + 1)] : 1.0;
+        smallest = std::min(smallest, std::max(c[std::size_t(t)], std::min(prev, next)));
+      }
+    knee_speed_limit = 2 * std::acos(std::min(1.0, smallest)) / job.frame_time;
+  }
 
   // The roots' drops, per frame (only where a planted leg cannot reach its target).
   std::vector<std::pair<int, double>> drops;  // (root, drop)
@@ -390,9 +421,7 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
     };
     for (std::size_t i = 0; i < n; ++i) {
       const int t = frame_of[i];
-      turn[i] = steps(t) ? std::min(1.0, std::abs(dot(load_quat(rotations.at(t - 1, leg.knee)),
-                                                      load_quat(rotations.at(t, leg.knee)))))
-                         : 1.0;
+      turn[i] = steps(t) ? std::min(1.0, knee_cos[l][std::size_t(t)]) : 1.0;
     }
     simd::acos_planes(turn, turn, n);
     std::fill(gain.begin(), gain.end(), 0.0);
