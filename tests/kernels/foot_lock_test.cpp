@@ -299,11 +299,13 @@ TEST(FootLock, TheKneeTurnsNoFasterThanTheInputsPeakAtAContactsEnds) {
 // the same rotations and root heights to within the float they are stored in (a few ulps: the
 // two round differently, fused multiply-adds and Highway's acos), and the same statistics. Cases:
 // both legs locked with toe contacts, a gap between touched frames, an unreachable pin (the root
-// lowered), without the knee's speed limit, with it binding, at 30 and 120 fps.
+// lowered), without the knee's speed limit, with it binding, a step that is not motion
+// (counted_steps) inside a contact, at 30 and 120 fps.
 TEST(FootLock, TheFastPathMatchesTheReference) {
   struct Case {
     double frame_time, speed, knee_speed;
     std::vector<std::vector<ContactInterval>> contacts, toes;
+    int uncounted_step = -1;  // a frame t whose step t-1 -> t is not motion
   };
   const std::vector<Case> cases = {
       {1.0 / 120,
@@ -315,6 +317,7 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
       {1.0 / 120, 4.0, -1, {{{100, 140}}, {}}, {}},
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}},
       {1.0 / 30, 1.6 * Walk::kPlantedSpeed, 0, {{{24, 38}}, {}}, {}},
+      {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}, 120},
   };
   for (std::size_t c = 0; c < cases.size(); ++c) {
     const Case& k = cases[c];
@@ -322,6 +325,11 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
     Walk walks[2] = {Walk(frames, k.frame_time, k.speed), Walk(frames, k.frame_time, k.speed)};
     FootLockStats stats[2];
     const std::vector<FootChain> legs = walk_legs();
+    std::vector<std::uint8_t> counted;
+    if (k.uncounted_step >= 0) {
+      counted.assign(std::size_t(frames), 1);
+      counted[std::size_t(k.uncounted_step)] = 0;
+    }
     for (int i = 0; i < 2; ++i) {
       FootLockJob job;
       job.params.max_knee_speed = k.knee_speed;
@@ -334,6 +342,7 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
       job.legs = legs;
       job.contacts = k.contacts;
       job.toe_contacts = k.toes;
+      job.counted_steps = counted;
       job.stats = &stats[i];
       job.implementation = i == 0 ? Implementation::reference : Implementation::fast;
       const Status s = job.run();
