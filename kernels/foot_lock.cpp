@@ -201,6 +201,7 @@ int top_ancestor(std::span<const int> parents, int joint) {
 // the per-contact pins, the roots' drops and the knee's speed limit (sequential over frames) stay
 // scalar. Same formulas as the reference below; the rounding differs.
 void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
+               const std::vector<const std::vector<ContactInterval>*>& toe_lists,
                const std::vector<std::vector<std::uint8_t>>& labels,
                const std::vector<std::uint8_t>& touched, int blend, FootLockStats& stats) {
   const RotationSpan rotations = job.rotations;
@@ -223,10 +224,13 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   std::vector<int> slot(std::size_t(joints), -1), needed;  // the legs and their ancestors
   {
     std::vector<std::uint8_t> mark(std::size_t(joints), 0);
-    for (const FootChain& leg : chains)
-      for (int j = leg.toe >= 0 ? leg.toe : leg.ankle; j >= 0 && !mark[std::size_t(j)];
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      // The toe only where it anchors a contact (the engine gives none).
+      const bool toe = chains[l].toe >= 0 && toe_lists[l] != nullptr && !toe_lists[l]->empty();
+      for (int j = toe ? chains[l].toe : chains[l].ankle; j >= 0 && !mark[std::size_t(j)];
            j = parents[std::size_t(j)])
         mark[std::size_t(j)] = 1;
+    }
     for (int j = 0; j < joints; ++j)
       if (mark[std::size_t(j)]) {
         slot[std::size_t(j)] = int(needed.size());
@@ -259,15 +263,8 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   };
   auto pos = [&](int j) { return rot(j) + 4 * stride; };
   auto local_rotation = [&](int j) { return qs + std::size_t(slot[std::size_t(j)]) * 4 * stride; };
-  for (std::size_t i = 0; i < n; ++i)  // frame by frame: a frame's joints share cache lines
-    for (std::size_t s = 0; s < needed.size(); ++s) {
-      const float* r = rotations.at(frame_of[i], needed[s]);
-      double* q = qs + s * 4 * stride + i;
-      q[0] = r[0];
-      q[stride] = r[1];
-      q[2 * stride] = r[2];
-      q[3 * stride] = r[3];
-    }
+  simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data(), n, needed.data(),
+                         needed.size(), qs, stride);
   for (int j : needed) {
     const bool moved = translated(j);
     if (moved)
@@ -648,7 +645,7 @@ Status FootLockJob::run() const {
   }
 
   if (implementation == Implementation::fast) {
-    lock_fast(*this, chains, labels, touched, blend, local_stats);
+    lock_fast(*this, chains, toe_lists, labels, touched, blend, local_stats);
     if (stats) *stats = local_stats;
     return {};
   }

@@ -73,6 +73,44 @@ HWY_INLINE Vec3V<V> RotateUnit(D d, QuatV<V> q, Vec3V<V> v) {
           hn::Add(hn::MulAdd(q.w, t.z, v.z), rt.z)};
 }
 
+void GatherRotations(const float* data, std::size_t frame_floats, const int* frames, std::size_t n,
+                     const int* joints, std::size_t count, double* out, std::size_t stride) {
+  std::size_t i = 0;
+#if HWY_TARGET != HWY_SCALAR
+  // Four frames of one joint at a time: a 4 x 4 transpose, then each component's four values
+  // widened to double, two stores per component instead of four.
+  const hn::FixedTag<float, 4> df;
+  const hn::FixedTag<float, 2> dh;
+  const hn::FixedTag<double, 2> dd;
+  for (; i + 4 <= n; i += 4) {
+    const float* rows[4] = {data + std::size_t(frames[i]) * frame_floats,
+                            data + std::size_t(frames[i + 1]) * frame_floats,
+                            data + std::size_t(frames[i + 2]) * frame_floats,
+                            data + std::size_t(frames[i + 3]) * frame_floats};
+    for (std::size_t s = 0; s < count; ++s) {
+      const std::size_t at = 4 * std::size_t(joints[s]);
+      const auto a = hn::LoadU(df, rows[0] + at), b = hn::LoadU(df, rows[1] + at),
+                 c = hn::LoadU(df, rows[2] + at), e = hn::LoadU(df, rows[3] + at);
+      const auto ab_lo = hn::InterleaveLower(df, a, b), ab_hi = hn::InterleaveUpper(df, a, b),
+                 ce_lo = hn::InterleaveLower(df, c, e), ce_hi = hn::InterleaveUpper(df, c, e);
+      const hn::Vec<decltype(df)> parts[4] = {
+          hn::ConcatLowerLower(df, ce_lo, ab_lo), hn::ConcatUpperUpper(df, ce_lo, ab_lo),
+          hn::ConcatLowerLower(df, ce_hi, ab_hi), hn::ConcatUpperUpper(df, ce_hi, ab_hi)};
+      for (std::size_t k = 0; k < 4; ++k) {
+        double* plane = out + (4 * s + k) * stride + i;
+        hn::StoreU(hn::PromoteTo(dd, hn::LowerHalf(dh, parts[k])), dd, plane);
+        hn::StoreU(hn::PromoteTo(dd, hn::UpperHalf(dh, parts[k])), dd, plane + 2);
+      }
+    }
+  }
+#endif
+  for (; i < n; ++i)
+    for (std::size_t s = 0; s < count; ++s) {
+      const float* r = data + std::size_t(frames[i]) * frame_floats + 4 * std::size_t(joints[s]);
+      for (std::size_t k = 0; k < 4; ++k) out[(4 * s + k) * stride + i] = r[k];
+    }
+}
+
 void ChainStep(const double* parent_rot, const double* parent_pos, const double* q,
                const double* local, Vec3 offset, double* rot, double* pos, std::size_t n,
                std::size_t stride) {
@@ -228,6 +266,12 @@ HWY_AFTER_NAMESPACE();
 namespace mocap::simd {
 
 HWY_EXPORT(ChainStep);
+HWY_EXPORT(GatherRotations);
+
+void gather_rotations(const float* data, std::size_t frame_floats, const int* frames, std::size_t n,
+                      const int* joints, std::size_t count, double* out, std::size_t stride) {
+  HWY_DYNAMIC_DISPATCH(GatherRotations)(data, frame_floats, frames, n, joints, count, out, stride);
+}
 HWY_EXPORT(AcosPlanes);
 HWY_EXPORT(LegIk);
 HWY_EXPORT(LegGeometryPlanes);

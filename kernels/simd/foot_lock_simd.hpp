@@ -13,6 +13,11 @@ namespace mocap::simd {
 
 inline constexpr std::size_t kFootLockPad = 16;
 
+// The local rotations of `count` joints at n frames, from rows of frame_floats floats (a
+// rotation tensor [F][J][4]) into planes: joint s's component k at out + (4 s + k) stride.
+void gather_rotations(const float* data, std::size_t frame_floats, const int* frames, std::size_t n,
+                      const int* joints, std::size_t count, double* out, std::size_t stride);
+
 // One joint's forward kinematics step over n frames: rot = parent_rot * q, pos = parent_pos +
 // parent_rot (local) parent_rot^-1, local the planes `local` or, when null, the constant offset.
 // rot and q: 4 planes (w, x, y, z); positions: 3 planes (x, y, z).
