@@ -366,7 +366,7 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
       const simd::LegGeometry& g = geo[l];
       if (!active[l][std::size_t(t)]) continue;
       const double r = g.len[2 * stride + i];
-      if (g.distance[i] <= r || !translated(root[l])) continue;
+      if (g.distance[i] <= r * r || !translated(root[l])) continue;  // squared: no root
       const double tx = g.to_target[i], tz = g.to_target[2 * stride + i];
       const double horizontal = std::hypot(tx, tz);
       const double height = -g.to_target[stride + i];  // hip above the target

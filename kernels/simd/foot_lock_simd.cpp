@@ -170,7 +170,7 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, std::size_t n, st
     const Vec3V<V> to{hn::Add(w.x, hn::LoadU(d, g.ox + i)), w.y,
                       hn::Add(w.z, hn::LoadU(d, g.oz + i))};
     StoreV(d, to, g.to_target, stride, i);
-    hn::StoreU(hn::Sqrt(Dot(to, to)), d, g.distance + i);
+    hn::StoreU(Dot(to, to), d, g.distance + i);
   }
 }
 
@@ -213,9 +213,13 @@ void LegIk(const double* u, const double* v, const double* nrm, const double* co
     const V cd = hn::Min(hn::Max(hn::MulAdd(c0, c1, hn::Mul(s0, s1)), minus_one), one);
     const V sd = hn::MulSub(s0, c1, hn::Mul(c0, s1));
     const V ch = hn::Sqrt(hn::Mul(half, hn::Add(one, cd)));
-    const V sh_small = hn::Div(sd, hn::Add(ch, ch));
-    const V sh_large = hn::CopySign(hn::Sqrt(hn::Mul(half, hn::Sub(one, cd))), sd);
-    const V sh = hn::IfThenElse(hn::Gt(ch, half), sh_small, sh_large);
+    // sin(delta / 2) from sin(delta) where the half angle is below 60 degrees, else from cos
+    // delta; the second square root only when a lane needs it (each lane's formula is its own).
+    const auto small_turn = hn::Gt(ch, half);
+    V sh = hn::Div(sd, hn::Add(ch, ch));
+    if (!hn::AllTrue(d, small_turn))
+      sh = hn::IfThenElse(small_turn, sh,
+                          hn::CopySign(hn::Sqrt(hn::Mul(half, hn::Sub(one, cd))), sd));
     const Vec3V<V> axis = LoadV(d, nrm, stride, i);
     const QuatV<V> knee_turn{ch, hn::Mul(sh, axis.x), hn::Mul(sh, axis.y), hn::Mul(sh, axis.z)};
     // The hip's shortest arc from the bent ankle onto the target (rotation_between).
@@ -249,12 +253,20 @@ void LegIk(const double* u, const double* v, const double* nrm, const double* co
     const QuatV<V> out[3] = {Multiply(Conj(parent), hip_global),
                              Multiply(Conj(hip_global), knee_global),
                              Multiply(Conj(knee_global), ankle)};
+    // Normalized: products of float-stored unit quaternions, so |q|^2 = 1 + e with |e| of the
+    // order of float's epsilon, where 1 / sqrt(1 + e) = 1 - e/2 + 3e^2/8 - 5e^3/16 is exact in
+    // double (next term ~e^4); a lane farther from unit length takes the division.
+    const V limit = hn::Set(d, 1e-4), k1 = hn::Set(d, -0.5), k2 = hn::Set(d, 0.375),
+            k3 = hn::Set(d, -0.3125);
     for (int k = 0; k < 3; ++k) {
       const QuatV<V>& q = out[k];
-      const V qq =
-          hn::MulAdd(q.z, q.z, hn::MulAdd(q.y, q.y, hn::MulAdd(q.x, q.x, hn::Mul(q.w, q.w))));
-      StoreQ(d, Scale(q, hn::Div(one, hn::Sqrt(qq))), locals + 4 * std::size_t(k) * stride, stride,
-             i);
+      const V e = hn::Sub(
+          hn::MulAdd(q.z, q.z, hn::MulAdd(q.y, q.y, hn::MulAdd(q.x, q.x, hn::Mul(q.w, q.w)))), one);
+      V scale = hn::MulAdd(hn::MulAdd(hn::MulAdd(k3, e, k2), e, k1), e, one);
+      const auto near = hn::Lt(hn::Abs(e), limit);
+      if (!hn::AllTrue(d, near))
+        scale = hn::IfThenElse(near, scale, hn::Div(one, hn::Sqrt(hn::Add(e, one))));
+      StoreQ(d, Scale(q, scale), locals + 4 * std::size_t(k) * stride, stride, i);
     }
   }
 }

@@ -29,7 +29,7 @@ void chain_step(const double* parent_rot, const double* parent_pos, const double
 // ankle positions and the offset's horizontal part (ox, oz): u = knee - hip, v = ankle - knee,
 // len = (l1, l2, reach L), cos_f and theta_f the knee's interior angle, normal = (u x (ankle -
 // hip)) / |.| and bent = 1 where that normal is defined (else 0, normal 0), to_target = ankle +
-// (ox, 0, oz) - hip and its length.
+// (ox, 0, oz) - hip and its squared length (distance).
 struct LegGeometry {
   const double *hip, *knee, *ankle, *ox, *oz;  // inputs (3, 3, 3, 1, 1 planes)
   double *u, *v, *len, *cos_f, *theta_f, *normal, *bent, *to_target, *distance;
