@@ -105,8 +105,9 @@ struct FootLockJob {
   // knee's speed limit does not hold across it.
   std::span<const std::uint8_t> counted_steps;
   FootLockStats* stats = nullptr;  // optional, written
-  // fast: the touched frames as planes through kernels/simd/foot_lock_simd.hpp (the same steps;
-  // its rounding differs from the reference's, the scalar path below each step's formula).
+  // reference: the scalar path, frame by frame, as the equations above. fast: the same steps
+  // with the touched frames as planes through kernels/simd/foot_lock_simd.hpp; only the rounding
+  // differs (tests/kernels/foot_lock_test.cpp compares them).
   Implementation implementation = Implementation::fast;
 
   // Sizes agree, legs are hip -> knee -> ankle (-> toe) chains, no joint in two legs, one

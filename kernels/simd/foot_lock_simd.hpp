@@ -3,8 +3,8 @@
 // dynamic dispatch, in double: lanes are the frames the lock touches, stored as planes (one array
 // of `stride` doubles per coordinate; stride >= n rounded up to kFootLockPad, the padding lanes
 // computed and ignored). Same formulas as the scalar reference in kernels/foot_lock.cpp; their
-// rounding differs (fused multiply-adds, Highway's acos), far below the float the rotations are
-// stored in.
+// rounding differs (fused multiply-adds, Highway's acos, the IK's normalization by a series), far
+// below the float the rotations are stored in.
 #include <cstddef>
 
 #include "core/quaternion.hpp"
