@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
+
+#include "kernels/simd/foot_lock_simd.hpp"
 
 namespace mocap {
 namespace {
@@ -89,16 +92,12 @@ std::vector<std::uint8_t> contact_labels(const std::vector<ContactInterval>* ank
 
 // D(t) of the header for one leg; active[t] = 1 where the leg is locked or blending.
 // Returns the number of contacts (clusters of adjacent segments).
-int leg_offsets(const FootChain& leg, std::span<const LegFrame> frames,
-                std::span<const std::uint8_t> label, int blend, std::vector<Vec3>& offset,
-                std::vector<std::uint8_t>& active) {
-  const int count = int(frames.size());
+// anchor_at(anchor, t): the anchor's position at frame t (count frames).
+template <class Anchor>
+int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label, int blend,
+                std::vector<Vec3>& offset, std::vector<std::uint8_t>& active) {
   offset.assign(std::size_t(count), Vec3{});
   active.assign(std::size_t(count), 0);
-  auto anchor_at = [&](int anchor, int t) {
-    const LegFrame& f = frames[std::size_t(t)];
-    return anchor == 1 || leg.toe < 0 ? f.ankle : f.toe;
-  };
   std::vector<Segment> segments;
   for (int t = 0; t < count;) {
     if (label[std::size_t(t)] == 0) {
@@ -195,6 +194,317 @@ int leg_offsets(const FootChain& leg, std::span<const LegFrame> frames,
 int top_ancestor(std::span<const int> parents, int joint) {
   while (parents[std::size_t(joint)] >= 0) joint = parents[std::size_t(joint)];
   return joint;
+}
+
+// run()'s steps with the touched frames as planes (kernels/simd/foot_lock_simd.hpp): forward
+// kinematics, the legs' geometry, the knee's cosines and the IK run in vector lanes over frames;
+// the per-contact pins, the roots' drops and the knee's speed limit (sequential over frames) stay
+// scalar. Same formulas as the reference below; the rounding differs.
+void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
+               const std::vector<const std::vector<ContactInterval>*>& toe_lists,
+               const std::vector<std::vector<std::uint8_t>>& labels,
+               const std::vector<std::uint8_t>& touched, int blend, FootLockStats& stats) {
+  const RotationSpan rotations = job.rotations;
+  const std::span<const int> parents = job.parents;
+  const int frames = rotations.frames, joints = int(parents.size());
+  const std::size_t leg_count = chains.size();
+  std::vector<int> frame_of, index_of(std::size_t(frames), -1);  // plane index <-> frame
+  for (int t = 0; t < frames; ++t)
+    if (touched[std::size_t(t)]) {
+      index_of[std::size_t(t)] = int(frame_of.size());
+      frame_of.push_back(t);
+    }
+  const std::size_t n = frame_of.size();
+  if (n == 0) return;  // no contact: nothing touched, nothing counted
+  const std::size_t P = simd::kFootLockPad, stride = (n + P - 1) / P * P;
+  auto translated = [&](int j) {
+    return !job.translated_joints.empty() && job.translated_joints[std::size_t(j)] != 0;
+  };
+
+  std::vector<int> slot(std::size_t(joints), -1), needed;  // the legs and their ancestors
+  {
+    std::vector<std::uint8_t> mark(std::size_t(joints), 0);
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      // The toe only where it anchors a contact (the engine gives none).
+      const bool toe = chains[l].toe >= 0 && toe_lists[l] != nullptr && !toe_lists[l]->empty();
+      for (int j = toe ? chains[l].toe : chains[l].ankle; j >= 0 && !mark[std::size_t(j)];
+           j = parents[std::size_t(j)])
+        mark[std::size_t(j)] = 1;
+    }
+    for (int j = 0; j < joints; ++j)
+      if (mark[std::size_t(j)]) {
+        slot[std::size_t(j)] = int(needed.size());
+        needed.push_back(j);
+      }
+  }
+  // All planes in one block, left uninitialized but for their padding lanes (every kernel and
+  // loop below writes lanes [0, n) before they are read): zeroing it cost as much as the IK.
+  constexpr std::size_t kPerLeg = 22, kShared = 7 + 3 + 1 + 1 + 1 + 3 + 12;
+  const std::size_t total = (11 * needed.size() + kPerLeg * leg_count + kShared) * stride;
+  const std::unique_ptr<double[]> block(new double[total]);
+  std::size_t used = 0;
+  auto take = [&](std::size_t count) {
+    double* p = block.get() + used;
+    used += count * stride;
+    for (std::size_t k = 0; k < count; ++k)
+      std::fill(p + k * stride + n, p + (k + 1) * stride, 0.0);
+    return p;
+  };
+  double* const global = take(7 * needed.size());
+  double* const identity = take(7);
+  std::fill(identity, identity + 7 * stride, 0.0);
+  std::fill(identity, identity + stride, 1.0);
+  double* const qs = take(4 * needed.size());  // the local rotations
+  double* const local = take(3);
+
+  // Forward kinematics, one joint at a time over all touched frames.
+  auto rot = [&](int j) {
+    return j < 0 ? identity : global + std::size_t(slot[std::size_t(j)]) * 7 * stride;
+  };
+  auto pos = [&](int j) { return rot(j) + 4 * stride; };
+  auto local_rotation = [&](int j) { return qs + std::size_t(slot[std::size_t(j)]) * 4 * stride; };
+  simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data(), n, needed.data(),
+                         needed.size(), qs, stride);
+  for (int j : needed) {
+    const bool moved = translated(j);
+    if (moved)
+      for (std::size_t i = 0; i < n; ++i) {
+        const float* p = job.translations.at(frame_of[i], j);
+        for (std::size_t k = 0; k < 3; ++k) local[k * stride + i] = p[k];
+      }
+    const int p = parents[std::size_t(j)];
+    simd::chain_step(rot(p), pos(p), local_rotation(j), moved ? local : nullptr,
+                     job.offsets[std::size_t(j)], rot(j), pos(j), n, stride);
+  }
+  auto point = [&](int j, std::size_t i) {
+    const double* p = pos(j);
+    return Vec3{p[i], p[stride + i], p[2 * stride + i]};
+  };
+
+  // The offsets D(t) per leg, then per leg and frame, once: bones, lengths, reach, the knee's
+  // angle, the bend plane's normal, the target.
+  std::vector<std::vector<Vec3>> offset(leg_count);
+  std::vector<std::vector<std::uint8_t>> active(leg_count);
+  std::vector<simd::LegGeometry> geo(leg_count);
+  std::vector<double*> drop(leg_count);
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    for (std::uint8_t v : labels[l]) stats.locked_frames += v != 0;
+    const FootChain& leg = chains[l];
+    auto anchor_at = [&](int anchor, int t) {
+      return point(anchor == 1 || leg.toe < 0 ? leg.ankle : leg.toe,
+                   std::size_t(index_of[std::size_t(t)]));
+    };
+    stats.contacts += leg_offsets(frames, anchor_at, labels[l], blend, offset[l], active[l]);
+    simd::LegGeometry& g = geo[l];
+    g.hip = pos(leg.hip);
+    g.knee = pos(leg.knee);
+    g.ankle = pos(leg.ankle);
+    double* ox = take(1);
+    double* oz = take(1);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 o = offset[l][std::size_t(frame_of[i])];
+      ox[i] = o.x;
+      oz[i] = o.z;
+    }
+    g.ox = ox;
+    g.oz = oz;
+    g.u = take(3);
+    g.v = take(3);
+    g.len = take(3);  // l1, l2, reach
+    g.cos_f = take(1);
+    g.theta_f = take(1);
+    g.normal = take(3);
+    g.bent = take(1);
+    g.to_target = take(3);
+    g.distance = take(1);
+    drop[l] = take(1);
+    std::fill(drop[l], drop[l] + n, 0.0);
+    simd::leg_geometry(g, job.params.max_reach, n, stride);
+  }
+
+  std::vector<int> root(leg_count);
+  for (std::size_t l = 0; l < leg_count; ++l) root[l] = top_ancestor(parents, chains[l].hip);
+  double knee_speed_limit = job.params.max_knee_speed;
+  // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's, from the planes where touched).
+  std::vector<std::vector<double>> knee_cos(leg_count,
+                                            std::vector<double>(std::size_t(frames), 1.0));
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    const int knee = chains[l].knee;
+    const double* kq = local_rotation(knee);
+    auto quat_at = [&](int t) {
+      const int i = index_of[std::size_t(t)];
+      return i >= 0 ? Quat{kq[i], kq[stride + std::size_t(i)], kq[2 * stride + std::size_t(i)],
+                           kq[3 * stride + std::size_t(i)]}
+                    : load_quat(rotations.at(t, knee));
+    };
+    std::vector<double>& c = knee_cos[l];
+    Quat before = quat_at(0);
+    for (int t = 1; t < frames; ++t) {
+      const Quat now = quat_at(t);
+      if (job.counted_steps.empty() || job.counted_steps[std::size_t(t)])
+        c[std::size_t(t)] = std::abs(dot(before, now));
+      before = now;
+    }
+  }
+  if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos
+    double smallest = 1;
+    for (const std::vector<double>& c : knee_cos)
+      for (int t = 1; t < frames; ++t) {
+        const double prev = t > 1 ? c[std::size_t(t - 1)] : 1.0,
+                     next = t + 1 < frames ? c[std::size_t(t + 1)] : 1.0;
+        smallest = std::min(smallest, std::max(c[std::size_t(t)], std::min(prev, next)));
+      }
+    knee_speed_limit = 2 * std::acos(std::min(1.0, smallest)) / job.frame_time;
+  }
+
+  // The roots' drops, per frame (only where a planted leg cannot reach its target).
+  std::vector<std::pair<int, double>> drops;  // (root, drop)
+  for (std::size_t i = 0; i < n; ++i) {
+    const int t = frame_of[i];
+    drops.clear();
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      const simd::LegGeometry& g = geo[l];
+      if (!active[l][std::size_t(t)]) continue;
+      const double r = g.len[2 * stride + i];
+      if (g.distance[i] <= r * r || !translated(root[l])) continue;  // squared: no root
+      const double tx = g.to_target[i], tz = g.to_target[2 * stride + i];
+      const double horizontal = std::hypot(tx, tz);
+      const double height = -g.to_target[stride + i];  // hip above the target
+      double d = horizontal < r ? height - std::sqrt(r * r - horizontal * horizontal) : height;
+      d = std::max(d, 0.0);
+      auto it = std::find_if(drops.begin(), drops.end(),
+                             [&](const auto& e) { return e.first == root[l]; });
+      if (it == drops.end())
+        drops.emplace_back(root[l], d);
+      else
+        it->second = std::max(it->second, d);
+    }
+    bool lowered = false;
+    for (const auto& [r, d] : drops) {
+      if (d <= 0) continue;
+      float* p = job.translations.at(t, r);
+      p[1] = float(double(p[1]) - d);
+      lowered = true;
+      stats.max_drop = std::max(stats.max_drop, d);
+    }
+    stats.lowered_frames += lowered;
+    for (std::size_t l = 0; l < leg_count; ++l)
+      for (const auto& [r, d] : drops)
+        if (r == root[l]) drop[l][i] = std::max(d, 0.0);
+  }
+
+  // The knee's speed limit and the IK, per leg (reference: the same steps, frame by frame).
+  const double step_limit = knee_speed_limit > 0 ? knee_speed_limit * job.frame_time : 0.0;
+  std::vector<double> low(std::size_t(frames), 0.0), high(std::size_t(frames), 0.0),
+      gain(std::size_t(frames), 0.0), room(std::size_t(frames), 0.0);
+  std::vector<std::uint8_t> ik(std::size_t(frames), 0), solve(n, 0);
+  double* const turn = take(1);
+  double* const cos1 = take(1);
+  double* const theta1 = take(1);
+  double* const normal = take(3);
+  double* const locals = take(12);
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    const FootChain& leg = chains[l];
+    const simd::LegGeometry& g = geo[l];
+    std::fill(ik.begin(), ik.end(), 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const int t = frame_of[i];
+      ik[std::size_t(t)] = active[l][std::size_t(t)] || drop[l][i] > 0;
+    }
+    // The knee's turn per step into each touched frame next to this leg's IK.
+    auto steps = [&](int t) {
+      return t > 0 && (job.counted_steps.empty() || job.counted_steps[std::size_t(t)]) &&
+             (ik[std::size_t(t)] || ik[std::size_t(t - 1)]);
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+      const int t = frame_of[i];
+      turn[i] = steps(t) ? std::min(1.0, knee_cos[l][std::size_t(t)]) : 1.0;
+    }
+    simd::acos_planes(turn, turn, n);
+    std::fill(gain.begin(), gain.end(), 0.0);
+    std::fill(room.begin(), room.end(), step_limit);
+    room[0] = INFINITY;
+    for (int t = 1; t < frames; ++t)
+      if (!job.counted_steps.empty() && !job.counted_steps[std::size_t(t)])
+        room[std::size_t(t)] = INFINITY;
+    for (std::size_t i = 0; i < n; ++i) {
+      const int t = frame_of[i];
+      if (!steps(t)) continue;
+      const double turn_angle = 2 * turn[i];
+      const double gi = g.theta_f[i] - g.theta_f[std::size_t(index_of[std::size_t(t - 1)])];
+      const double twist2 = std::max(0.0, turn_angle * turn_angle - gi * gi);
+      gain[std::size_t(t)] = gi;
+      room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
+    }
+    double lo = -INFINITY, hi = INFINITY;
+    for (int t = frames - 1; t >= 0; --t) {
+      if (!ik[std::size_t(t)]) {
+        lo = hi = 0;
+        continue;
+      }
+      if (t + 1 < frames) {
+        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
+        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
+      }
+      low[std::size_t(t)] = lo;
+      high[std::size_t(t)] = hi;
+    }
+
+    // The normal carried over straight frames; the wanted cosine; the limit.
+    Vec3 nrm{};
+    for (std::size_t i = 0; i < n; ++i)
+      if (g.bent[i] != 0) {
+        nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
+        break;
+      }
+    if (norm(nrm) == 0) {
+      Quat h{};
+      if (frame_of[0] == 0) {
+        const double* r = rot(leg.hip);
+        h = {r[0], r[stride], r[2 * stride], r[3 * stride]};
+      }
+      nrm = rotate(h, Vec3{1, 0, 0});
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (g.bent[i] != 0) nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
+      normal[i] = nrm.x;
+      normal[stride + i] = nrm.y;
+      normal[2 * stride + i] = nrm.z;
+      solve[i] = ik[std::size_t(frame_of[i])] && g.len[i] > 0 && g.len[stride + i] > 0;
+    }
+    simd::leg_knee_cosine(g.to_target, drop[l], g.len, cos1, theta1, n, stride);
+    if (step_limit > 0) {
+      double delta = 0;  // Delta(t - 1)
+      for (std::size_t i = 0; i < n; ++i) {
+        const int t = frame_of[i];
+        if (i > 0 && frame_of[i - 1] != t - 1) delta = 0;  // an untouched frame between
+        if (!solve[i]) {
+          delta = 0;
+          continue;
+        }
+        const double wanted = theta1[i] - g.theta_f[i];
+        const double gi = gain[std::size_t(t)], qi = room[std::size_t(t)];
+        const double a = std::max(low[std::size_t(t)], delta - gi - qi),
+                     b = std::min(high[std::size_t(t)], delta - gi + qi);
+        const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
+        if (limited != wanted) cos1[i] = std::cos(g.theta_f[i] + limited);
+        delta = limited;
+      }
+    }
+    simd::leg_ik(g.u, g.v, normal, g.cos_f, cos1, g.to_target, rot(parents[std::size_t(leg.hip)]),
+                 rot(leg.hip), rot(leg.knee), rot(leg.ankle), locals, n, stride);
+    const int chain[3] = {leg.hip, leg.knee, leg.ankle};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!solve[i]) continue;
+      for (std::size_t k = 0; k < 3; ++k) {
+        float* r = rotations.at(frame_of[i], chain[k]);
+        const double* p = locals + 4 * k * stride + i;
+        Quat out{p[0], p[stride], p[2 * stride], p[3 * stride]};
+        if (dot(out, load_quat(r)) < 0) out = negate(out);
+        store_quat(out, r);
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -334,6 +644,12 @@ Status FootLockJob::run() const {
     }
   }
 
+  if (implementation == Implementation::fast) {
+    lock_fast(*this, chains, toe_lists, labels, touched, blend, local_stats);
+    if (stats) *stats = local_stats;
+    return {};
+  }
+
   // Pass 1: the filtered motion's leg frames at the touched frames (forward kinematics,
   // spec-free, as in forward_kinematics.hpp, with the global rotations kept).
   std::vector<std::vector<LegFrame>> leg_frames(leg_count,
@@ -388,8 +704,11 @@ Status FootLockJob::run() const {
   for (std::size_t l = 0; l < leg_count; ++l) {
     const std::vector<std::uint8_t>& label = labels[l];
     for (std::uint8_t v : label) local_stats.locked_frames += v != 0;
-    local_stats.contacts +=
-        leg_offsets(chains[l], leg_frames[l], label, blend, offset[l], active[l]);
+    auto anchor_at = [&](int anchor, int t) {
+      const LegFrame& f = leg_frames[l][std::size_t(t)];
+      return anchor == 1 || chains[l].toe < 0 ? f.ankle : f.toe;
+    };
+    local_stats.contacts += leg_offsets(frames, anchor_at, label, blend, offset[l], active[l]);
   }
 
   // The bend-plane normal of each leg, carried over frames where the leg is straight: first the

@@ -57,6 +57,7 @@
 #include "core/status.hpp"
 #include "core/tensor.hpp"
 #include "kernels/foot_contacts.hpp"
+#include "kernels/implementation.hpp"
 
 namespace mocap {
 
@@ -104,6 +105,10 @@ struct FootLockJob {
   // knee's speed limit does not hold across it.
   std::span<const std::uint8_t> counted_steps;
   FootLockStats* stats = nullptr;  // optional, written
+  // reference: the scalar path, frame by frame, as the equations above. fast: the same steps
+  // with the touched frames as planes through kernels/simd/foot_lock_simd.hpp; only the rounding
+  // differs (tests/kernels/foot_lock_test.cpp compares them).
+  Implementation implementation = Implementation::fast;
 
   // Sizes agree, legs are hip -> knee -> ankle (-> toe) chains, no joint in two legs, one
   // contact list per leg, intervals ordered and disjoint within one list.

@@ -295,6 +295,79 @@ TEST(FootLock, TheKneeTurnsNoFasterThanTheInputsPeakAtAContactsEnds) {
   }
 }
 
+// The fast path (planes through kernels/simd/foot_lock_simd.hpp) against the scalar reference:
+// the same rotations and root heights to within the float they are stored in (a few ulps: the
+// two round differently, fused multiply-adds and Highway's acos), and the same statistics. Cases:
+// both legs locked with toe contacts, a gap between touched frames, an unreachable pin (the root
+// lowered), without the knee's speed limit, with it binding, a step that is not motion
+// (counted_steps) inside a contact, at 30 and 120 fps.
+TEST(FootLock, TheFastPathMatchesTheReference) {
+  struct Case {
+    double frame_time, speed, knee_speed;
+    std::vector<std::vector<ContactInterval>> contacts, toes;
+    int uncounted_step = -1;  // a frame t whose step t-1 -> t is not motion
+  };
+  const std::vector<Case> cases = {
+      {1.0 / 120,
+       Walk::kPlantedSpeed,
+       0,
+       {{{0, 12}, {100, 140}}, {{50, 80}, {170, 200}}},
+       {{{12, 20}}, {{80, 86}}}},
+      {1.0 / 30, Walk::kPlantedSpeed, 0, {{{2, 10}, {25, 35}}, {{14, 20}}}, {}},
+      {1.0 / 120, 4.0, -1, {{{100, 140}}, {}}, {}},
+      {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}},
+      {1.0 / 30, 1.6 * Walk::kPlantedSpeed, 0, {{{24, 38}}, {}}, {}},
+      {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}, 120},
+  };
+  for (std::size_t c = 0; c < cases.size(); ++c) {
+    const Case& k = cases[c];
+    const int frames = int(std::lround(2.0 / k.frame_time));
+    Walk walks[2] = {Walk(frames, k.frame_time, k.speed), Walk(frames, k.frame_time, k.speed)};
+    FootLockStats stats[2];
+    const std::vector<FootChain> legs = walk_legs();
+    std::vector<std::uint8_t> counted;
+    if (k.uncounted_step >= 0) {
+      counted.assign(std::size_t(frames), 1);
+      counted[std::size_t(k.uncounted_step)] = 0;
+    }
+    for (int i = 0; i < 2; ++i) {
+      FootLockJob job;
+      job.params.max_knee_speed = k.knee_speed;
+      job.parents = walks[i].parents;
+      job.offsets = walks[i].offsets;
+      job.translated_joints = walks[i].translated;
+      job.frame_time = k.frame_time;
+      job.rotations = {walks[i].rotations.data(), frames, Walk::kJoints};
+      job.translations = {walks[i].translations.data(), frames, Walk::kJoints};
+      job.legs = legs;
+      job.contacts = k.contacts;
+      job.toe_contacts = k.toes;
+      job.counted_steps = counted;
+      job.stats = &stats[i];
+      job.implementation = i == 0 ? Implementation::reference : Implementation::fast;
+      const Status s = job.run();
+      ASSERT_TRUE(s.ok()) << s.message();
+    }
+    EXPECT_EQ(stats[0].contacts, stats[1].contacts) << "case " << c;
+    EXPECT_EQ(stats[0].locked_frames, stats[1].locked_frames) << "case " << c;
+    EXPECT_EQ(stats[0].lowered_frames, stats[1].lowered_frames) << "case " << c;
+    EXPECT_NEAR(stats[0].max_drop, stats[1].max_drop, 1e-6) << "case " << c;
+    const Walk original(frames, k.frame_time, k.speed);
+    double largest = 0, moved = 0;
+    for (std::size_t i = 0; i < walks[0].rotations.size(); ++i) {
+      largest = std::max(largest, double(std::abs(walks[0].rotations[i] - walks[1].rotations[i])));
+      moved = std::max(moved, double(std::abs(walks[0].rotations[i] - original.rotations[i])));
+    }
+    for (std::size_t i = 0; i < walks[0].translations.size(); ++i)
+      largest =
+          std::max(largest, double(std::abs(walks[0].translations[i] - walks[1].translations[i])));
+    std::printf("case %zu: largest difference %.3g (the lock moved components by up to %.3g)\n", c,
+                largest, moved);
+    EXPECT_LE(largest, 1e-6) << "case " << c;
+    EXPECT_GT(moved, 1e-3) << "case " << c << ": the lock did nothing, the test would be vacuous";
+  }
+}
+
 TEST(FootLock, ValidateExplainsWhatIsWrong) {
   Walk walk(10, 1.0 / 120);
   std::vector<FootChain> legs = walk_legs();
