@@ -50,6 +50,8 @@ struct MotionGuardJob {
   MotionMeasure after;  // of the clip kept
 
   Status validate() const;
+  // After run(): whether the clip kept something other than the first candidate.
+  bool fell_back() const { return kept != (feet ? Kept::filtered_locked : Kept::filtered); }
   // Locks (when `feet`), measures, and falls back as the header says. `feet` ends as locked for
   // the candidate kept (or with `locked` false and no stats when it kept an unlocked one).
   Status run();

@@ -30,6 +30,7 @@ struct ClipState {
   ReviewEntry review_entry;     // and the page's entry, built from it in the finish stage
   std::optional<Kept> kept;     // with the guard: what the clip kept
   Clip raw;                     // with the guard: the clip as read, its last resort
+  bool fell_back = false;       // with the guard: the clip kept is not the filter's output
 };
 
 // What this run does to the clip, kept with it in a library output.
@@ -186,10 +187,11 @@ RunSummary run_job(const Job& job) {
       if (const Status s = g.run(); !s.ok()) return item.fail(s.message());
       state.after = std::move(g.after);
       state.kept = g.kept;
+      state.fell_back = g.fell_back();
       state.raw = {};
       // A library output says per clip what it holds: the parameters ran, but the clip kept
       // something nearer its input.
-      if (g.kept != (feet.lock ? Kept::filtered_locked : Kept::filtered)) {
+      if (g.fell_back()) {
         ClipProvenance& p = item.output.provenance;
         nlohmann::json parameters = nlohmann::json::parse(p.parameters_json, nullptr, false);
         if (parameters.is_object()) {
@@ -252,10 +254,9 @@ RunSummary run_job(const Job& job) {
       tally.add(item.name, item.output, state.conditioning);
       automatic.add(item.name, state.resolved);
       if (measure) {
-        const Kept first = feet.lock ? Kept::filtered_locked : Kept::filtered;
         motion.add(item.name, state.before, state.after,
                    state.kept ? std::optional(to_string(*state.kept)) : std::nullopt,
-                   state.kept && *state.kept != first);
+                   state.fell_back);
       }
       if (feet.lock) feet.add(item.name, item.output, state.feet);
       if (job.review) {
