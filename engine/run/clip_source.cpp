@@ -67,4 +67,19 @@ std::optional<Clip> LibrarySource::read(std::size_t i, std::string* error) {
   return reader_->read_clip(header.path, error);
 }
 
+bool LibrarySource::load(std::size_t i, Loaded& loaded, std::string* error) {
+  const auto& header = reader_->clips()[i];
+  if (!header.error.empty()) {
+    if (error) *error = header.error;
+    return false;
+  }
+  loaded.stored = reader_->read_stored(header.path, error);
+  return loaded.stored.has_value();
+}
+
+std::optional<Clip> LibrarySource::decode(std::size_t, Loaded&& loaded, std::string* error) {
+  if (!loaded.stored) return std::move(loaded.clip);
+  return io::LibraryReader::decode_stored(std::move(*loaded.stored), error);
+}
+
 }  // namespace mocap::engine

@@ -26,10 +26,12 @@ class ClipSource {
   virtual std::optional<Clip> read(std::size_t index, std::string* error) = 0;
 
   // read() in two halves for the task graph: load() in its serial reader stage (the file or
-  // HDF5 access), decode() in a parallel task (parsing). By default load() does all of read().
+  // HDF5 access), decode() in a parallel task (parsing, chunk decoding). By default load() does
+  // all of read().
   struct Loaded {
     std::optional<Clip> clip;
-    std::string bytes;  // a BVH file's text, for decode()
+    std::string bytes;                     // a BVH file's text, for decode()
+    std::optional<io::StoredClip> stored;  // a library clip's chunks as stored, for decode()
   };
   virtual bool load(std::size_t index, Loaded& loaded, std::string* error) {
     loaded.clip = read(index, error);
@@ -70,6 +72,9 @@ class LibrarySource final : public ClipSource {
   std::string relative_path(std::size_t i) const override { return clip_path(i) + ".bvh"; }
   std::size_t cost(std::size_t i) const override;
   std::optional<Clip> read(std::size_t i, std::string* error) override;
+  // The clip's chunks as stored (LibraryReader::read_stored); their decoding in decode().
+  bool load(std::size_t i, Loaded& loaded, std::string* error) override;
+  std::optional<Clip> decode(std::size_t i, Loaded&& loaded, std::string* error) override;
   const io::LibraryReader& reader() const { return *reader_; }
 
  private:
