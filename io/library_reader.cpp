@@ -764,6 +764,7 @@ std::string read_raw_chunks(hid_t group, const char* name, int frames, int joint
     sizes[k] = std::size_t(size);
     total += sizes[k];
   }
+  // Shrinking keeps a recycled buffer's pages; only growth is zero-filled.
   out.bytes.resize(total);
   out.chunk_ends.clear();
   out.chunk_ends.reserve(chunks);
@@ -818,7 +819,8 @@ std::string decode_dataset(const EncodedDataset& in, const char* name, Compressi
 }  // namespace
 
 std::optional<StoredClip> LibraryReader::read_stored(const std::string& clip_path,
-                                                     std::string* error) const {
+                                                     std::string* error,
+                                                     StoredClip recycled) const {
   const h5::ErrorSilence quiet;
   const std::string where = "clip '" + clip_path + "': ";
   auto opened = open_clip(*state_, clip_path, error);
@@ -827,6 +829,8 @@ std::optional<StoredClip> LibraryReader::read_stored(const std::string& clip_pat
   StoredClip out;
   out.where = state_->message(where);
   EncodedClip& clip = out.chunks;
+  clip.rotations.bytes = std::move(recycled.chunks.rotations.bytes);
+  clip.translations.bytes = std::move(recycled.chunks.translations.bytes);
   clip.skeleton = opened->skeleton;
   clip.frame_time = opened->header.frame_time;
   clip.frames = opened->header.frames;
@@ -857,7 +861,7 @@ std::optional<StoredClip> LibraryReader::read_stored(const std::string& clip_pat
   return out;
 }
 
-std::optional<Clip> LibraryReader::decode_stored(StoredClip&& stored, std::string* error) {
+std::optional<Clip> LibraryReader::decode_stored(StoredClip& stored, std::string* error) {
   if (stored.decoded) return std::move(stored.decoded);
   const EncodedClip& in = stored.chunks;
   Clip clip;
@@ -883,7 +887,7 @@ std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
                                              std::string* error) const {
   auto stored = read_stored(clip_path, error);
   if (!stored) return std::nullopt;
-  return decode_stored(std::move(*stored), error);
+  return decode_stored(*stored, error);
 }
 
 namespace {

@@ -56,9 +56,13 @@ class LibraryReader {
   // its chunks as stored by H5Dread_chunk); decode_stored() verifies each chunk's Fletcher-32,
   // decompresses and unshuffles it (io/chunk_codec.hpp) without HDF5, on any thread. A clip laid
   // out otherwise than float32 chunks of whole frames through this store's filters is decoded
-  // by HDF5 in read_stored(). read_clip(p) is decode_stored(read_stored(p)).
-  std::optional<StoredClip> read_stored(const std::string& clip_path, std::string* error) const;
-  static std::optional<Clip> decode_stored(StoredClip&& stored, std::string* error);
+  // by HDF5 in read_stored(). read_clip(p) is decode_stored(read_stored(p)). read_stored()
+  // reads into the buffers of `recycled` (a clip decode_stored() is done with), so that a run
+  // does not allocate and page-fault them afresh for every clip; decode_stored() leaves
+  // stored.chunks as they were for that.
+  std::optional<StoredClip> read_stored(const std::string& clip_path, std::string* error,
+                                        StoredClip recycled = {}) const;
+  static std::optional<Clip> decode_stored(StoredClip& stored, std::string* error);
   // The clip's chunks as stored (H5Dread_chunk, each Fletcher-32 checked when the file has
   // checksums), ready for LibraryWriter::write_encoded_as_is: how the join copies clips without
   // decoding them. A clip laid out otherwise than this store writes is decoded and re-encoded.

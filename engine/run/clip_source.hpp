@@ -2,6 +2,7 @@
 // Where a job's clips come from: BVH files, or the clips of a library file. Read from the
 // graph's serial reader stage only.
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -72,13 +73,16 @@ class LibrarySource final : public ClipSource {
   std::string relative_path(std::size_t i) const override { return clip_path(i) + ".bvh"; }
   std::size_t cost(std::size_t i) const override;
   std::optional<Clip> read(std::size_t i, std::string* error) override;
-  // The clip's chunks as stored (LibraryReader::read_stored); their decoding in decode().
+  // The clip's chunks as stored (LibraryReader::read_stored); their decoding in decode(), which
+  // hands the chunk buffers back for a later load() to reuse.
   bool load(std::size_t i, Loaded& loaded, std::string* error) override;
   std::optional<Clip> decode(std::size_t i, Loaded&& loaded, std::string* error) override;
   const io::LibraryReader& reader() const { return *reader_; }
 
  private:
   std::unique_ptr<io::LibraryReader> reader_;
+  std::mutex spare_mutex_;  // decode() runs on several threads
+  std::vector<io::StoredClip> spare_;
 };
 
 }  // namespace mocap::engine

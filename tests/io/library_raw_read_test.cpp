@@ -86,7 +86,7 @@ void expect_reads_as_hdf5(const fs::path& path, const std::string& clip_path, bo
     EXPECT_NE(stored->where.find(path.string()), std::string::npos);
     EXPECT_NE(stored->where.find("clip '" + clip_path + "'"), std::string::npos);
   }
-  const auto clip = LibraryReader::decode_stored(std::move(*stored), &error);
+  const auto clip = LibraryReader::decode_stored(*stored, &error);
   ASSERT_TRUE(clip) << error;
   EXPECT_TRUE(same_bits(clip->rotations, hdf5_read(path, "/clips/" + clip_path + "/rotations")));
   EXPECT_TRUE(
@@ -296,8 +296,7 @@ TEST(LibraryRawRead, StoredClipsDecodeOnManyThreadsAtOnce) {
   for (int i = 0; i < 8; ++i)
     threads.emplace_back([&, i] {
       std::string problem;
-      decoded[std::size_t(i)] =
-          LibraryReader::decode_stored(std::move(stored[std::size_t(i)]), &problem);
+      decoded[std::size_t(i)] = LibraryReader::decode_stored(stored[std::size_t(i)], &problem);
     });
   for (auto& t : threads) t.join();
   for (int i = 0; i < 8; ++i) {
@@ -305,6 +304,34 @@ TEST(LibraryRawRead, StoredClipsDecodeOnManyThreadsAtOnce) {
     EXPECT_TRUE(same_bits(decoded[std::size_t(i)]->rotations, clips[std::size_t(i)].rotations));
     EXPECT_TRUE(
         same_bits(decoded[std::size_t(i)]->translations, clips[std::size_t(i)].translations));
+  }
+}
+
+// A run recycles the chunk buffers of decoded clips into the next reads: a shorter clip read
+// into a longer clip's buffers, and back, reads as it does into fresh ones.
+TEST(LibraryRawRead, RecycledBuffersReadLikeFreshOnes) {
+  if (!compression_available(Compression::lz4)) GTEST_SKIP() << "no LZ4 plugin";
+  test::TempDir dir("raw-read");
+  const fs::path path = dir / "lib.h5";
+  std::string error;
+  auto writer = LibraryWriter::create(path, Compression::lz4, &error, true);
+  ASSERT_TRUE(writer) << error;
+  const std::vector<Clip> clips = {make_clip(31, 2000, 30), make_clip(31, 50, 31),
+                                   make_clip(31, 1500, 32)};
+  for (std::size_t i = 0; i < clips.size(); ++i)
+    ASSERT_TRUE(writer->write_clip("c" + std::to_string(i), clips[i], &error)) << error;
+  ASSERT_TRUE(writer->close(&error)) << error;
+  const auto reader = LibraryReader::open(path, &error);
+  ASSERT_TRUE(reader) << error;
+  StoredClip recycled;
+  for (std::size_t i = 0; i < clips.size(); ++i) {
+    auto stored = reader->read_stored("c" + std::to_string(i), &error, std::move(recycled));
+    ASSERT_TRUE(stored) << error;
+    const auto clip = LibraryReader::decode_stored(*stored, &error);
+    ASSERT_TRUE(clip) << error;
+    EXPECT_TRUE(same_bits(clip->rotations, clips[i].rotations)) << i;
+    EXPECT_TRUE(same_bits(clip->translations, clips[i].translations)) << i;
+    recycled = std::move(*stored);
   }
 }
 
@@ -342,7 +369,7 @@ TEST(LibraryRawRead, ADamagedChunkIsNamedWhenDecoded) {
       ASSERT_TRUE(reader) << error;
       auto stored = reader->read_stored("a/victim", &error);
       ASSERT_TRUE(stored) << error;
-      EXPECT_FALSE(LibraryReader::decode_stored(std::move(*stored), &error));
+      EXPECT_FALSE(LibraryReader::decode_stored(*stored, &error));
       EXPECT_EQ(error, path.string() + ": clip 'a/victim': its 'rotations' chunk at frame " +
                            std::to_string(chunk[0]) +
                            " fails its Fletcher32 checksum (the file is damaged)");
