@@ -619,6 +619,16 @@ std::string read_stored_chunks(hid_t group, const char* name, int frames, int jo
   }
   const std::size_t chunks =
       (std::size_t(frames) + std::size_t(out.chunk_frames) - 1) / std::size_t(out.chunk_frames);
+  // One allocation for the dataset's chunks, not a copy per doubling, when their sizes add up to
+  // no more than the data (with room for incompressible chunks); else it grows as it reads.
+  std::size_t total = 0;
+  for (std::size_t k = 0; k < chunks; ++k) {
+    const hsize_t offset[3] = {hsize_t(k) * hsize_t(out.chunk_frames), 0, 0};
+    hsize_t size = 0;
+    if (H5Dget_chunk_storage_size(dataset.get(), offset, &size) >= 0) total += std::size_t(size);
+  }
+  const std::size_t data = std::size_t(frames) * std::size_t(joints) * std::size_t(channels) * 4;
+  if (total <= 2 * data + (std::size_t(1) << 20)) out.bytes.reserve(out.bytes.size() + total);
   for (std::size_t k = 0; k < chunks; ++k) {
     const hsize_t offset[3] = {hsize_t(k) * hsize_t(out.chunk_frames), 0, 0};
     hsize_t size = 0;
@@ -735,7 +745,10 @@ std::string read_raw_chunks(hid_t group, const char* name, int frames, int joint
   out.frames = frames;
   out.joints = joints;
   out.channels = channels;
-  if (frames == 0) return {};  // no chunk to read (and motion_dims() bounds no chunk shape)
+  if (frames == 0) {  // no chunk to read (and motion_dims() bounds no chunk shape)
+    out.bytes.clear();
+    return {};
+  }
   // Bounded by motion_dims(): at most max(the data, 1 MiB).
   const std::size_t chunk_bytes =
       std::size_t(chunk[0]) * std::size_t(joints) * std::size_t(channels) * sizeof(float);
