@@ -68,7 +68,8 @@ std::vector<float> hdf5_read(const fs::path& path, const std::string& dataset) {
 }
 
 bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
 }
 
 // Reads `clip_path` in two halves; expects the chunks path (not HDF5's) when `raw`, and the
