@@ -195,6 +195,19 @@ std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<c
     return c;
   };
 
+  // A leg is kept only if its hip, knee and ankle belong to no leg kept before: two legs that
+  // share a joint cannot both be pinned (FootLockJob refuses them), and on a skeleton whose
+  // lowest leaves are siblings (a binary tree) they would be one leg counted twice.
+  std::vector<std::uint8_t> used(std::size_t(joints), 0);
+  std::vector<FootChain> out;
+  auto keep_if_disjoint = [&](const FootChain& c) {
+    for (int j : {c.hip, c.knee, c.ankle})
+      if (j >= 0 && used[std::size_t(j)]) return;
+    for (int j : {c.hip, c.knee, c.ankle})
+      if (j >= 0) used[std::size_t(j)] = 1;
+    out.push_back(c);
+  };
+
   // (side, rank) -> joint; rank 0 = foot/ankle, 1 = toe. Shallowest per key.
   std::map<std::pair<char, int>, int> best;
   for (int j = 0; j < joints && std::size_t(j) < names.size(); ++j) {
@@ -207,15 +220,14 @@ std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<c
     const auto it = best.find(key);
     if (it == best.end() || depth[std::size_t(j)] < depth[std::size_t(it->second)]) best[key] = j;
   }
-  std::vector<FootChain> out;
   for (char side : {'L', 'R', '?'}) {
     auto it = best.find({side, 0});
     if (it == best.end()) it = best.find({side, 1});
-    if (it != best.end()) out.push_back(chain_from(it->second, side));
+    if (it != best.end()) keep_if_disjoint(chain_from(it->second, side));
   }
   if (!out.empty()) return out;
 
-  // No names: the two lowest leaves of the rest pose.
+  // No names: the two lowest leaves of the rest pose whose legs share no joint.
   std::vector<Vec3> rest(static_cast<std::size_t>(joints));
   std::vector<bool> has_child(std::size_t(joints), false);
   for (int j = 0; j < joints; ++j) {
@@ -229,8 +241,8 @@ std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<c
     if (!has_child[std::size_t(j)] && parents[std::size_t(j)] >= 0) leaves.push_back(j);
   std::stable_sort(leaves.begin(), leaves.end(),
                    [&](int a, int b) { return rest[std::size_t(a)].y < rest[std::size_t(b)].y; });
-  for (std::size_t i = 0; i < leaves.size() && i < 2; ++i)
-    out.push_back(chain_from(leaves[i], '?'));
+  for (std::size_t i = 0; i < leaves.size() && out.size() < 2; ++i)
+    keep_if_disjoint(chain_from(leaves[i], '?'));
   return out;
 }
 

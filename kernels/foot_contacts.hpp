@@ -77,7 +77,8 @@ struct FootChain {
 
 // The feet of a skeleton. By name first: per side (Left/Right, L/R prefix), the shallowest joint
 // whose name contains "foot" or "ankle" (else "toe"). Without such names: the two leaves lowest in
-// the rest pose (offsets only), each taken as the ankle. Chains shallower than three joints keep
+// the rest pose (offsets only), each taken as the ankle. No two legs share a hip, knee or ankle
+// (a leg that would is left out). Chains shallower than three joints keep
 // -1 for what is missing. Parents precede children.
 std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<const int> parents,
                                  std::span<const Vec3> offsets);

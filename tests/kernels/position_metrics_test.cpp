@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -174,6 +175,32 @@ TEST(FootContacts, FindsFeetByNameOrAsTheLowestLeaves) {
               (leaves[0].ankle == 8 && leaves[1].ankle == 4));
   const std::vector<std::pair<int, Vec3>> sites = {{4, {0, -0.5, 0}}};
   EXPECT_DOUBLE_EQ(rest_height(parents, offsets, sites), 9.5);
+}
+
+TEST(FootContacts, LegsNeverShareAJoint) {
+  // A tree without names whose two lowest leaves are siblings (as in mocap-library-bench's
+  // synthetic skeleton): as two legs they would share their knee and hip, and the foot lock would
+  // refuse the clip. Root 0; hips 1, 2; knees 3 (of 1), 4 (of 2); ankles 5, 6 (of 3), 7 (of 4).
+  const std::vector<int> parents = {-1, 0, 0, 1, 2, 3, 3, 4};
+  const std::vector<Vec3> offsets = {{0, 0, 0},  {1, -1, 0},   {-1, -1, 0},   {0, -2, 0},
+                                     {0, -2, 0}, {0.3, -2, 0}, {-0.3, -2, 0}, {0, -1.5, 0}};
+  const std::vector<std::string> anonymous(parents.size(), "j");
+  const auto legs = find_feet(anonymous, parents, offsets);
+  ASSERT_EQ(legs.size(), 2u);
+  EXPECT_EQ(legs[0].ankle, 5);  // the lowest leaf (y -5; 6 ties it and shares its knee)
+  EXPECT_EQ(legs[1].ankle, 7);  // the lowest leaf of the other leg (y -4.5)
+  std::set<int> joints;
+  for (const FootChain& leg : legs)
+    for (int j : {leg.hip, leg.knee, leg.ankle}) {
+      if (j >= 0) {
+        EXPECT_TRUE(joints.insert(j).second) << "joint " << j << " in two legs";
+      }
+    }
+  // Named feet on one chain (LeftFoot and RightFoot siblings under one knee): one leg, not two.
+  const std::vector<std::string> named = {"Hips", "Leg", "Knee", "RightFoot", "LeftFoot"};
+  const std::vector<int> chain = {-1, 0, 1, 2, 2};
+  const std::vector<Vec3> down(chain.size(), Vec3{0, -1, 0});
+  EXPECT_EQ(find_feet(named, chain, down).size(), 1u);
 }
 
 TEST(PositionMetrics, KnownErrorsJitterAndSkating) {
