@@ -141,10 +141,9 @@ struct FilterSettings {
 
   // Each method's parameters, as its kernel's Params struct (BilateralParams, NlpmParams, ...),
   // kept by type: the table of methods reads and sets them, so a method's parameters need no
-  // member here. param<P>() is default_params<P>() until edit<P>() sets it. Automatic markers:
-  // bof's sigma_g, sigma_t == 0, nlpm's h == 0 and range_sigma, translation_sigma_t < 0, kalman's
-  // lambda == 0
-  // are resolved per clip (the table's `resolve`).
+  // member here. param<P>() is default_params<P>() until edit<P>() sets it. Automatic markers
+  // (bof's sigma_g, sigma_t == 0; nlpm's h == 0, range_sigma < 0, translation_sigma_t < 0;
+  // kalman's lambda == 0) are resolved per clip by the table's `resolve`.
   template <class P>
   P param() const;
   template <class P>
