@@ -122,6 +122,7 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
       clusters.push_back({s, s});
   }
   std::vector<double> xs, ys, zs;
+  std::vector<Vec3> points;
   for (const Cluster& c : clusters) {
     // The primary segment: the longest ankle segment, else the longest.
     int primary = c.first;
@@ -133,17 +134,21 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
       if (better) primary = s;
     }
     const Segment& p = segments[std::size_t(primary)];
-    xs.clear();
-    ys.clear();
-    zs.clear();
-    for (int t = p.begin; t < p.end; ++t) {
-      const Vec3 v = anchor_at(p.anchor, t);
-      xs.push_back(v.x);
-      ys.push_back(v.y);
-      zs.push_back(v.z);
+    // The anchor's positions read once (the medians reorder their copies).
+    const std::size_t length = std::size_t(p.end - p.begin);
+    points.resize(length);
+    xs.resize(length);
+    ys.resize(length);
+    zs.resize(length);
+    for (std::size_t k = 0; k < length; ++k) {
+      const Vec3 v = anchor_at(p.anchor, p.begin + int(k));
+      points[k] = v;
+      xs[k] = v.x;
+      ys[k] = v.y;
+      zs[k] = v.z;
     }
     const Vec3 pin{median(xs), median(ys), median(zs)};
-    for (int t = p.begin; t < p.end; ++t) offset[std::size_t(t)] = pin - anchor_at(p.anchor, t);
+    for (std::size_t k = 0; k < length; ++k) offset[std::size_t(p.begin) + k] = pin - points[k];
     // Neighbouring segments continue the offset the anchor had next to them.
     for (int s = primary + 1; s <= c.last; ++s) {
       const Segment& g = segments[std::size_t(s)];
