@@ -331,8 +331,9 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   for (std::size_t l = 0; l < leg_count; ++l) root[l] = top_ancestor(parents, chains[l].hip);
   double knee_speed_limit = job.params.max_knee_speed;
   // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's, from the planes where touched).
+  // One more entry, 1, after the last frame: the peak's neighbours need no bounds check.
   std::vector<std::vector<double>> knee_cos(leg_count,
-                                            std::vector<double>(std::size_t(frames), 1.0));
+                                            std::vector<double>(std::size_t(frames) + 1, 1.0));
   for (std::size_t l = 0; l < leg_count; ++l) {
     const int knee = chains[l].knee;
     const double* kq = local_rotation(knee);
@@ -351,15 +352,20 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
       before = now;
     }
   }
-  if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos
-    double smallest = 1;
-    for (const std::vector<double>& c : knee_cos)
-      for (int t = 1; t < frames; ++t) {
-        const double prev = t > 1 ? c[std::size_t(t - 1)] : 1.0,
-                     next = t + 1 < frames ? c[std::size_t(t + 1)] : 1.0;
-        smallest = std::min(smallest, std::max(c[std::size_t(t)], std::min(prev, next)));
-      }
-    knee_speed_limit = 2 * std::acos(std::min(1.0, smallest)) / job.frame_time;
+  if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos (c(0) = c(frames) = 1)
+    // Four running minima (min is exact in any order): no chain of dependent minsd.
+    double smallest[4] = {1, 1, 1, 1};
+    for (const std::vector<double>& c : knee_cos) {
+      const double* p = c.data();
+      auto step = [p](int t) { return std::max(p[t], std::min(p[t - 1], p[t + 1])); };
+      int t = 1;
+      for (; t + 3 < frames; t += 4)
+        for (int k = 0; k < 4; ++k) smallest[k] = std::min(smallest[k], step(t + k));
+      for (; t < frames; ++t) smallest[0] = std::min(smallest[0], step(t));
+    }
+    const double least =
+        std::min(std::min(smallest[0], smallest[1]), std::min(smallest[2], smallest[3]));
+    knee_speed_limit = 2 * std::acos(std::min(1.0, least)) / job.frame_time;
   }
 
   // The roots' drops, per frame (only where a planted leg cannot reach its target).
