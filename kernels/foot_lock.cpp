@@ -121,7 +121,7 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
     else
       clusters.push_back({s, s});
   }
-  std::vector<double> xs, ys, zs;
+  std::vector<double> xs, zs;
   std::vector<Vec3> points;
   for (const Cluster& c : clusters) {
     // The primary segment: the longest ankle segment, else the longest.
@@ -138,16 +138,16 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
     const std::size_t length = std::size_t(p.end - p.begin);
     points.resize(length);
     xs.resize(length);
-    ys.resize(length);
     zs.resize(length);
     for (std::size_t k = 0; k < length; ++k) {
       const Vec3 v = anchor_at(p.anchor, p.begin + int(k));
       points[k] = v;
       xs[k] = v.x;
-      ys[k] = v.y;
       zs[k] = v.z;
     }
-    const Vec3 pin{median(xs), median(ys), median(zs)};
+    // The pin's height is not needed: only D's horizontal part is applied (header, "Target"),
+    // and D's components never mix below.
+    const Vec3 pin{median(xs), 0, median(zs)};
     for (std::size_t k = 0; k < length; ++k) offset[std::size_t(p.begin) + k] = pin - points[k];
     // Neighbouring segments continue the offset the anchor had next to them.
     for (int s = primary + 1; s <= c.last; ++s) {
