@@ -121,7 +121,8 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
     else
       clusters.push_back({s, s});
   }
-  std::vector<double> xs, ys, zs;
+  std::vector<double> xs, zs;
+  std::vector<Vec3> points;
   for (const Cluster& c : clusters) {
     // The primary segment: the longest ankle segment, else the longest.
     int primary = c.first;
@@ -133,17 +134,21 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
       if (better) primary = s;
     }
     const Segment& p = segments[std::size_t(primary)];
-    xs.clear();
-    ys.clear();
-    zs.clear();
-    for (int t = p.begin; t < p.end; ++t) {
-      const Vec3 v = anchor_at(p.anchor, t);
-      xs.push_back(v.x);
-      ys.push_back(v.y);
-      zs.push_back(v.z);
+    // The anchor's positions read once (the medians reorder their copies).
+    const std::size_t length = std::size_t(p.end - p.begin);
+    points.resize(length);
+    xs.resize(length);
+    zs.resize(length);
+    for (std::size_t k = 0; k < length; ++k) {
+      const Vec3 v = anchor_at(p.anchor, p.begin + int(k));
+      points[k] = v;
+      xs[k] = v.x;
+      zs[k] = v.z;
     }
-    const Vec3 pin{median(xs), median(ys), median(zs)};
-    for (int t = p.begin; t < p.end; ++t) offset[std::size_t(t)] = pin - anchor_at(p.anchor, t);
+    // The pin's height is not needed: only D's horizontal part is applied (header, "Target"),
+    // and D's components never mix below.
+    const Vec3 pin{median(xs), 0, median(zs)};
+    for (std::size_t k = 0; k < length; ++k) offset[std::size_t(p.begin) + k] = pin - points[k];
     // Neighbouring segments continue the offset the anchor had next to them.
     for (int s = primary + 1; s <= c.last; ++s) {
       const Segment& g = segments[std::size_t(s)];
@@ -239,7 +244,7 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   }
   // All planes in one block, left uninitialized but for their padding lanes (every kernel and
   // loop below writes lanes [0, n) before they are read): zeroing it cost as much as the IK.
-  constexpr std::size_t kPerLeg = 22, kShared = 7 + 3 + 1 + 1 + 1 + 3 + 12;
+  constexpr std::size_t kPerLeg = 22, kShared = 7 + 3 + 1 + 1 + 1 + 3;
   const std::size_t total = (11 * needed.size() + kPerLeg * leg_count + kShared) * stride;
   const std::unique_ptr<double[]> block(new double[total]);
   std::size_t used = 0;
@@ -326,8 +331,9 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   for (std::size_t l = 0; l < leg_count; ++l) root[l] = top_ancestor(parents, chains[l].hip);
   double knee_speed_limit = job.params.max_knee_speed;
   // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's, from the planes where touched).
+  // One more entry, 1, after the last frame: the peak's neighbours need no bounds check.
   std::vector<std::vector<double>> knee_cos(leg_count,
-                                            std::vector<double>(std::size_t(frames), 1.0));
+                                            std::vector<double>(std::size_t(frames) + 1, 1.0));
   for (std::size_t l = 0; l < leg_count; ++l) {
     const int knee = chains[l].knee;
     const double* kq = local_rotation(knee);
@@ -346,15 +352,20 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
       before = now;
     }
   }
-  if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos
-    double smallest = 1;
-    for (const std::vector<double>& c : knee_cos)
-      for (int t = 1; t < frames; ++t) {
-        const double prev = t > 1 ? c[std::size_t(t - 1)] : 1.0,
-                     next = t + 1 < frames ? c[std::size_t(t + 1)] : 1.0;
-        smallest = std::min(smallest, std::max(c[std::size_t(t)], std::min(prev, next)));
-      }
-    knee_speed_limit = 2 * std::acos(std::min(1.0, smallest)) / job.frame_time;
+  if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos (c(0) = c(frames) = 1)
+    // Four running minima (min is exact in any order): no chain of dependent minsd.
+    double smallest[4] = {1, 1, 1, 1};
+    for (const std::vector<double>& c : knee_cos) {
+      const double* p = c.data();
+      auto step = [p](int t) { return std::max(p[t], std::min(p[t - 1], p[t + 1])); };
+      int t = 1;
+      for (; t + 3 < frames; t += 4)
+        for (int k = 0; k < 4; ++k) smallest[k] = std::min(smallest[k], step(t + k));
+      for (; t < frames; ++t) smallest[0] = std::min(smallest[0], step(t));
+    }
+    const double least =
+        std::min(std::min(smallest[0], smallest[1]), std::min(smallest[2], smallest[3]));
+    knee_speed_limit = 2 * std::acos(std::min(1.0, least)) / job.frame_time;
   }
 
   // The roots' drops, per frame (only where a planted leg cannot reach its target).
@@ -402,55 +413,29 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
   double* const cos1 = take(1);
   double* const theta1 = take(1);
   double* const normal = take(3);
-  double* const locals = take(12);
   for (std::size_t l = 0; l < leg_count; ++l) {
     const FootChain& leg = chains[l];
     const simd::LegGeometry& g = geo[l];
     std::fill(ik.begin(), ik.end(), 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      const int t = frame_of[i];
-      ik[std::size_t(t)] = active[l][std::size_t(t)] || drop[l][i] > 0;
-    }
-    // The knee's turn per step into each touched frame next to this leg's IK.
+    // The knee's turn per step into each touched frame next to this leg's IK (frames ascend:
+    // ik[t - 1] is set before frame t is reached).
     auto steps = [&](int t) {
       return t > 0 && (job.counted_steps.empty() || job.counted_steps[std::size_t(t)]) &&
              (ik[std::size_t(t)] || ik[std::size_t(t - 1)]);
     };
     for (std::size_t i = 0; i < n; ++i) {
       const int t = frame_of[i];
+      ik[std::size_t(t)] = active[l][std::size_t(t)] || drop[l][i] > 0;
       turn[i] = steps(t) ? std::min(1.0, knee_cos[l][std::size_t(t)]) : 1.0;
     }
     simd::acos_planes(turn, turn, n);
     std::fill(gain.begin(), gain.end(), 0.0);
     std::fill(room.begin(), room.end(), step_limit);
     room[0] = INFINITY;
-    for (int t = 1; t < frames; ++t)
-      if (!job.counted_steps.empty() && !job.counted_steps[std::size_t(t)])
-        room[std::size_t(t)] = INFINITY;
-    for (std::size_t i = 0; i < n; ++i) {
-      const int t = frame_of[i];
-      if (!steps(t)) continue;
-      const double turn_angle = 2 * turn[i];
-      const double gi = g.theta_f[i] - g.theta_f[std::size_t(index_of[std::size_t(t - 1)])];
-      const double twist2 = std::max(0.0, turn_angle * turn_angle - gi * gi);
-      gain[std::size_t(t)] = gi;
-      room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
-    }
-    double lo = -INFINITY, hi = INFINITY;
-    for (int t = frames - 1; t >= 0; --t) {
-      if (!ik[std::size_t(t)]) {
-        lo = hi = 0;
-        continue;
-      }
-      if (t + 1 < frames) {
-        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
-        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
-      }
-      low[std::size_t(t)] = lo;
-      high[std::size_t(t)] = hi;
-    }
-
-    // The normal carried over straight frames; the wanted cosine; the limit.
+    if (!job.counted_steps.empty())
+      for (int t = 1; t < frames; ++t)
+        if (!job.counted_steps[std::size_t(t)]) room[std::size_t(t)] = INFINITY;
+    // The normal carried over straight frames (first: the first frame's that has one).
     Vec3 nrm{};
     for (std::size_t i = 0; i < n; ++i)
       if (g.bent[i] != 0) {
@@ -466,13 +451,36 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
       nrm = rotate(h, Vec3{1, 0, 0});
     }
     for (std::size_t i = 0; i < n; ++i) {
+      const int t = frame_of[i];
+      if (steps(t)) {
+        const double turn_angle = 2 * turn[i];
+        const double gi = g.theta_f[i] - g.theta_f[std::size_t(index_of[std::size_t(t - 1)])];
+        const double twist2 = std::max(0.0, turn_angle * turn_angle - gi * gi);
+        gain[std::size_t(t)] = gi;
+        room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
+      }
       if (g.bent[i] != 0) nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
       normal[i] = nrm.x;
       normal[stride + i] = nrm.y;
       normal[2 * stride + i] = nrm.z;
-      solve[i] = ik[std::size_t(frame_of[i])] && g.len[i] > 0 && g.len[stride + i] > 0;
+      solve[i] = ik[std::size_t(t)] && g.len[i] > 0 && g.len[stride + i] > 0;
     }
-    simd::leg_knee_cosine(g.to_target, drop[l], g.len, cos1, theta1, n, stride);
+    double lo = -INFINITY, hi = INFINITY;
+    for (int t = frames - 1; t >= 0; --t) {
+      if (!ik[std::size_t(t)]) {
+        lo = hi = 0;
+        continue;
+      }
+      if (t + 1 < frames) {
+        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
+        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
+      }
+      low[std::size_t(t)] = lo;
+      high[std::size_t(t)] = hi;
+    }
+
+    // The wanted cosine; the limit.
+    simd::leg_knee_cosine(g.to_target, drop[l], g.len, cos1, theta1, solve.data(), n, stride);
     if (step_limit > 0) {
       double delta = 0;  // Delta(t - 1)
       for (std::size_t i = 0; i < n; ++i) {
@@ -491,19 +499,24 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
         delta = limited;
       }
     }
-    simd::leg_ik(g.u, g.v, normal, g.cos_f, cos1, g.to_target, rot(parents[std::size_t(leg.hip)]),
-                 rot(leg.hip), rot(leg.knee), rot(leg.ankle), locals, n, stride);
-    const int chain[3] = {leg.hip, leg.knee, leg.ankle};
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!solve[i]) continue;
-      for (std::size_t k = 0; k < 3; ++k) {
-        float* r = rotations.at(frame_of[i], chain[k]);
-        const double* p = locals + 4 * k * stride + i;
-        Quat out{p[0], p[stride], p[2 * stride], p[3 * stride]};
-        if (dot(out, load_quat(r)) < 0) out = negate(out);
-        store_quat(out, r);
-      }
-    }
+    simd::LegIkPlanes io{
+        g.u,
+        g.v,
+        normal,
+        g.cos_f,
+        cos1,
+        g.to_target,
+        rot(parents[std::size_t(leg.hip)]),
+        rot(leg.hip),
+        rot(leg.knee),
+        rot(leg.ankle),
+        {local_rotation(leg.hip), local_rotation(leg.knee), local_rotation(leg.ankle)},
+        solve.data(),
+        rotations.data,
+        std::size_t(joints) * 4,
+        frame_of.data(),
+        {leg.hip, leg.knee, leg.ankle}};
+    simd::leg_ik(io, n, stride);
   }
 }
 

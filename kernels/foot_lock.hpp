@@ -6,9 +6,9 @@
 // Per leg (hip -> knee -> ankle, optional toe below the ankle), Y up:
 //   Contacts. The frames where the ankle's contact list (kernels/foot_contacts.hpp, found on the
 //   input) holds the ankle, else the frames where the toe's list (if given) holds the toe; a run of
-//   adjacent such frames is one contact. Its pin: the per-axis median, over its ankle frames (its
-//   toe frames when it has none), of that point's position in the filtered motion. A toe frame of a
-//   contact with ankle frames takes the offset the ankle had at the frame next to it, so the
+//   adjacent such frames is one contact. Its pin: the per-axis median (x, z), over its ankle frames
+//   (its toe frames when it has none), of that point's position in the filtered motion. A toe frame
+//   of a contact with ankle frames takes the offset the ankle had at the frame next to it, so the
 //   target does not jump where the heel lifts or lands.
 //   Target. The ankle's target is its filtered position plus an offset D(t): pin - anchor(t)
 //   inside a contact (anchor: the ankle, or the toe for a toe frame, then D moves the ankle so that

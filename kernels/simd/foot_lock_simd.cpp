@@ -6,6 +6,7 @@
 #include "hwy/foreach_target.h"  // IWYU pragma: keep
 
 #include <cstddef>
+#include <cstring>
 
 #include "hwy/contrib/math/math-inl.h"
 #include "hwy/highway.h"
@@ -174,13 +175,22 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, std::size_t n, st
   }
 }
 
+// Whether any of the lanes [i, i + N) ∩ [0, n) is solved: LegKneeCosine and LegIk skip the same
+// whole vectors (a leg's frames touched only for the other leg's contacts).
+HWY_INLINE bool AnySolved(const unsigned char* solve, std::size_t i, std::size_t N, std::size_t n) {
+  for (std::size_t j = i; j < i + N && j < n; ++j)
+    if (solve[j]) return true;
+  return false;
+}
+
 void LegKneeCosine(double* to_target, const double* drop, const double* len, double* cos1,
-                   double* theta1, std::size_t n, std::size_t stride) {
+                   double* theta1, const unsigned char* solve, std::size_t n, std::size_t stride) {
   const hn::ScalableTag<double> d;
   using V = hn::Vec<decltype(d)>;
   const std::size_t N = hn::Lanes(d);
   const V one = hn::Set(d, 1.0), minus_one = hn::Set(d, -1.0), tiny = hn::Set(d, 1e-9);
   for (std::size_t i = 0; i < n; i += N) {
+    if (!AnySolved(solve, i, N, n)) continue;
     const V y = hn::Add(hn::LoadU(d, to_target + stride + i), hn::LoadU(d, drop + i));
     hn::StoreU(y, d, to_target + stride + i);
     const Vec3V<V> to{hn::LoadU(d, to_target + i), y, hn::LoadU(d, to_target + 2 * stride + i)};
@@ -196,18 +206,18 @@ void LegKneeCosine(double* to_target, const double* drop, const double* len, dou
   }
 }
 
-void LegIk(const double* u, const double* v, const double* nrm, const double* cos0,
-           const double* cos1, const double* to_target, const double* parent_rot,
-           const double* hip_rot, const double* knee_rot, const double* ankle_rot, double* locals,
-           std::size_t n, std::size_t stride) {
+void LegIk(const LegIkPlanes& io, std::size_t n, std::size_t stride) {
   const hn::ScalableTag<double> d;
   using V = hn::Vec<decltype(d)>;
   const std::size_t N = hn::Lanes(d);
   const V zero = hn::Zero(d), one = hn::Set(d, 1.0), half = hn::Set(d, 0.5),
           minus_one = hn::Set(d, -1.0);
+  const hn::Rebind<float, decltype(d)> df;
+  HWY_ALIGN float lanes[4 * HWY_MAX_BYTES / sizeof(double)];
   for (std::size_t i = 0; i < n; i += N) {
+    if (!AnySolved(io.solve, i, N, n)) continue;
     // The knee's turn about the normal by theta0 - theta1 from the two cosines (turn_between).
-    const V c0 = hn::LoadU(d, cos0 + i), c1 = hn::LoadU(d, cos1 + i);
+    const V c0 = hn::LoadU(d, io.cos0 + i), c1 = hn::LoadU(d, io.cos1 + i);
     const V s0 = hn::Sqrt(hn::Max(zero, hn::NegMulAdd(c0, c0, one))),
             s1 = hn::Sqrt(hn::Max(zero, hn::NegMulAdd(c1, c1, one)));
     const V cd = hn::Min(hn::Max(hn::MulAdd(c0, c1, hn::Mul(s0, s1)), minus_one), one);
@@ -220,12 +230,12 @@ void LegIk(const double* u, const double* v, const double* nrm, const double* co
     if (!hn::AllTrue(d, small_turn))
       sh = hn::IfThenElse(small_turn, sh,
                           hn::CopySign(hn::Sqrt(hn::Mul(half, hn::Sub(one, cd))), sd));
-    const Vec3V<V> axis = LoadV(d, nrm, stride, i);
+    const Vec3V<V> axis = LoadV(d, io.normal, stride, i);
     const QuatV<V> knee_turn{ch, hn::Mul(sh, axis.x), hn::Mul(sh, axis.y), hn::Mul(sh, axis.z)};
     // The hip's shortest arc from the bent ankle onto the target (rotation_between).
     const Vec3V<V> a =
-        Add(LoadV(d, u, stride, i), RotateUnit(d, knee_turn, LoadV(d, v, stride, i)));
-    const Vec3V<V> b = LoadV(d, to_target, stride, i);
+        Add(LoadV(d, io.u, stride, i), RotateUnit(d, knee_turn, LoadV(d, io.v, stride, i)));
+    const Vec3V<V> b = LoadV(d, io.to_target, stride, i);
     const V nn = hn::Sqrt(hn::Mul(Dot(a, a), Dot(b, b)));
     const V w = hn::Add(nn, Dot(a, b));
     const Vec3V<V> c = Cross(a, b);
@@ -246,8 +256,8 @@ void LegIk(const double* u, const double* v, const double* nrm, const double* co
     swing = {hn::IfThenElse(degenerate, one, swing.w), hn::IfThenZeroElse(degenerate, swing.x),
              hn::IfThenZeroElse(degenerate, swing.y), hn::IfThenZeroElse(degenerate, swing.z)};
     // R_hip' = Q_h R_hip, R_knee' = Q_h Q_k R_knee, R_ankle' kept; as local rotations.
-    const QuatV<V> parent = LoadQ(d, parent_rot, stride, i), hip = LoadQ(d, hip_rot, stride, i),
-                   knee = LoadQ(d, knee_rot, stride, i), ankle = LoadQ(d, ankle_rot, stride, i);
+    const QuatV<V> parent = LoadQ(d, io.parent, stride, i), hip = LoadQ(d, io.hip, stride, i),
+                   knee = LoadQ(d, io.knee, stride, i), ankle = LoadQ(d, io.ankle, stride, i);
     const QuatV<V> hip_global = Multiply(swing, hip);
     const QuatV<V> knee_global = Multiply(Multiply(swing, knee_turn), knee);
     const QuatV<V> out[3] = {Multiply(Conj(parent), hip_global),
@@ -266,7 +276,23 @@ void LegIk(const double* u, const double* v, const double* nrm, const double* co
       const auto near = hn::Lt(hn::Abs(e), limit);
       if (!hn::AllTrue(d, near))
         scale = hn::IfThenElse(near, scale, hn::Div(one, hn::Sqrt(hn::Add(e, one))));
-      StoreQ(d, Scale(q, scale), locals + 4 * std::size_t(k) * stride, stride, i);
+      QuatV<V> r = Scale(q, scale);
+      const QuatV<V> o = LoadQ(d, io.original[k], stride, i);
+      const auto flip =
+          hn::Lt(hn::Add(hn::Add(hn::Add(hn::Mul(r.w, o.w), hn::Mul(r.x, o.x)), hn::Mul(r.y, o.y)),
+                         hn::Mul(r.z, o.z)),
+                 zero);
+      r = {hn::IfThenElse(flip, hn::Neg(r.w), r.w), hn::IfThenElse(flip, hn::Neg(r.x), r.x),
+           hn::IfThenElse(flip, hn::Neg(r.y), r.y), hn::IfThenElse(flip, hn::Neg(r.z), r.z)};
+      // As floats, interleaved: one 16-byte copy per frame into the tensor.
+      hn::StoreInterleaved4(hn::DemoteTo(df, r.w), hn::DemoteTo(df, r.x), hn::DemoteTo(df, r.y),
+                            hn::DemoteTo(df, r.z), df, lanes);
+      for (std::size_t j = 0; j < N && i + j < n; ++j) {
+        if (!io.solve[i + j]) continue;
+        std::memcpy(io.rotations + std::size_t(io.frames[i + j]) * io.frame_floats +
+                        4 * std::size_t(io.joints[k]),
+                    lanes + 4 * j, 4 * sizeof(float));
+      }
     }
   }
 }
@@ -294,8 +320,9 @@ void leg_geometry(const LegGeometry& g, double max_reach, std::size_t n, std::si
 }
 
 void leg_knee_cosine(double* to_target, const double* drop, const double* len, double* cos1,
-                     double* theta1, std::size_t n, std::size_t stride) {
-  HWY_DYNAMIC_DISPATCH(LegKneeCosine)(to_target, drop, len, cos1, theta1, n, stride);
+                     double* theta1, const unsigned char* solve, std::size_t n,
+                     std::size_t stride) {
+  HWY_DYNAMIC_DISPATCH(LegKneeCosine)(to_target, drop, len, cos1, theta1, solve, n, stride);
 }
 
 void chain_step(const double* parent_rot, const double* parent_pos, const double* q,
@@ -308,12 +335,8 @@ void acos_planes(const double* in, double* out, std::size_t n) {
   HWY_DYNAMIC_DISPATCH(AcosPlanes)(in, out, n);
 }
 
-void leg_ik(const double* u, const double* v, const double* nrm, const double* cos0,
-            const double* cos1, const double* to_target, const double* parent, const double* hip,
-            const double* knee, const double* ankle, double* locals, std::size_t n,
-            std::size_t stride) {
-  HWY_DYNAMIC_DISPATCH(LegIk)
-  (u, v, nrm, cos0, cos1, to_target, parent, hip, knee, ankle, locals, n, stride);
+void leg_ik(const LegIkPlanes& k, std::size_t n, std::size_t stride) {
+  HWY_DYNAMIC_DISPATCH(LegIk)(k, n, stride);
 }
 
 }  // namespace mocap::simd

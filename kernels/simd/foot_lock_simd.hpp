@@ -38,20 +38,31 @@ void leg_geometry(const LegGeometry& g, double max_reach, std::size_t n, std::si
 
 // The IK's wanted knee cosine (header "IK") once the hip is lowered by drop: to_target's y is
 // raised by drop (in place), d = |to_target| clamped to [|l1 - l2| (1 + tiny), reach], cos1 =
-// (l1^2 + l2^2 - d^2) / (2 l1 l2) clamped to [-1, 1], theta1 = acos(cos1).
+// (l1^2 + l2^2 - d^2) / (2 l1 l2) clamped to [-1, 1], theta1 = acos(cos1); only in the vectors
+// with a lane where solve[i] (the others are left unwritten, and leg_ik skips the same ones).
 void leg_knee_cosine(double* to_target, const double* drop, const double* len, double* cos1,
-                     double* theta1, std::size_t n, std::size_t stride);
+                     double* theta1, const unsigned char* solve, std::size_t n, std::size_t stride);
 
 // acos of each of n values clamped to [-1, 1] (in and out padded to a multiple of kFootLockPad).
 void acos_planes(const double* in, double* out, std::size_t n);
 
 // The IK of one leg at n frames (header "IK"): inputs u = knee - hip, v = ankle - knee, the
-// bend-plane normal nrm, cos0 / cos1 the cosines of the knee's interior angle before / after,
+// bend-plane normal, cos0 / cos1 the cosines of the knee's interior angle before / after,
 // to_target = target - hip, the global rotations of the hip's parent, hip, knee and ankle (4
-// planes each). Output: the local rotations of hip, knee and ankle, normalized (12 planes).
-void leg_ik(const double* u, const double* v, const double* nrm, const double* cos0,
-            const double* cos1, const double* to_target, const double* parent, const double* hip,
-            const double* knee, const double* ankle, double* locals, std::size_t n,
-            std::size_t stride);
+// planes each). Output, where solve[i]: the local rotations of hip, knee and ankle, normalized,
+// each on the hemisphere of `original` (the local rotation it replaces, as gathered), written as
+// floats into the rotation tensor (row frames[i], joint joints[k]): the IK's lanes go straight
+// to the tensor instead of through 12 planes and a scalar pass.
+struct LegIkPlanes {
+  const double *u, *v, *normal, *cos0, *cos1, *to_target;
+  const double *parent, *hip, *knee, *ankle;
+  const double* original[3];
+  const unsigned char* solve;
+  float* rotations;
+  std::size_t frame_floats;
+  const int* frames;
+  int joints[3];
+};
+void leg_ik(const LegIkPlanes& k, std::size_t n, std::size_t stride);
 
 }  // namespace mocap::simd
