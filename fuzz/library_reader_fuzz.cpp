@@ -72,27 +72,50 @@ class Bytes {
   const std::uint8_t* end_;
 };
 
-hid_t string_type() {
+// Fixed-length UTF-8 of `size` bytes as the library holds them, or variable-length strings
+// (size 0), which the reader must refuse unread.
+hid_t string_type(std::size_t size) {
   const hid_t type = H5Tcopy(H5T_C_S1);
-  H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_size(type, size == 0 ? H5T_VARIABLE : size);
   H5Tset_cset(type, H5T_CSET_UTF8);
   return type;
+}
+
+// The bytes to write for `values` in a type of string_type(size).
+std::vector<char> string_bytes(const std::vector<std::string>& values, std::size_t size,
+                               std::vector<const char*>& pointers) {
+  std::vector<char> bytes(size * values.size(), '\0');
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    pointers.push_back(values[i].c_str());
+    if (size > 0)
+      std::copy_n(values[i].begin(), std::min(size, values[i].size()), bytes.begin() + i * size);
+  }
+  return bytes;
+}
+
+std::size_t longest(const std::vector<std::string>& values) {
+  std::size_t size = 1;
+  for (const auto& v : values) size = std::max(size, v.size());
+  return size;
 }
 
 void remove(hid_t file, const std::string& path) {
   if (H5Lexists(file, path.c_str(), H5P_DEFAULT) > 0) H5Ldelete(file, path.c_str(), H5P_DEFAULT);
 }
 
-void put_strings(hid_t file, const std::string& path, const std::vector<std::string>& values) {
+void put_strings(hid_t file, const std::string& path, const std::vector<std::string>& values,
+                 bool variable = false) {
   remove(file, path);
-  const hid_t type = string_type();
+  const std::size_t size = variable ? 0 : longest(values);
+  const hid_t type = string_type(size);
   std::vector<const char*> pointers;
-  for (const auto& v : values) pointers.push_back(v.c_str());
+  const std::vector<char> bytes = string_bytes(values, size, pointers);
+  const void* data = variable ? static_cast<const void*>(pointers.data()) : bytes.data();
   const hsize_t dims[1] = {values.size()};
   const hid_t space = H5Screate_simple(1, dims, nullptr);
   const hid_t d =
       H5Dcreate2(file, path.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (d >= 0 && !values.empty()) H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, pointers.data());
+  if (d >= 0 && !values.empty()) H5Dwrite(d, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
   if (d >= 0) H5Dclose(d);
   H5Sclose(space);
   H5Tclose(type);
@@ -156,10 +179,13 @@ void put_attribute(hid_t file, const std::string& object, const char* name, hid_
 }
 
 void put_string_attribute(hid_t file, const std::string& object, const char* name,
-                          const std::string& value) {
-  const hid_t type = string_type();
-  const char* pointer = value.c_str();
-  put_attribute(file, object, name, type, &pointer);
+                          const std::string& value, bool variable = false) {
+  const std::size_t size = variable ? 0 : std::max<std::size_t>(value.size(), 1);
+  const hid_t type = string_type(size);
+  std::vector<const char*> pointers;
+  const std::vector<char> bytes = string_bytes({value}, size, pointers);
+  put_attribute(file, object, name, type,
+                variable ? static_cast<const void*>(pointers.data()) : bytes.data());
   H5Tclose(type);
 }
 
@@ -189,7 +215,7 @@ std::vector<std::uint8_t> build(Bytes& in) {
   std::vector<std::uint8_t> image;
   if (file < 0) return image;
   put_string_attribute(file, "/", "format", "mocap-clean-library");
-  const int version = 1;
+  const int version = 2;
   put_attribute(file, "/", "format_version", H5T_NATIVE_INT, &version);
   const int joints = 1 + int(in.byte() % 5);
   const hsize_t J = hsize_t(joints);
@@ -254,8 +280,9 @@ std::vector<std::uint8_t> build(Bytes& in) {
       case 4: {
         std::vector<std::string> n = names;
         n[in.byte() % joints] = in.byte() % 2 ? in.name() : n[in.byte() % joints];
-        if (in.byte() % 5 == 0) n.pop_back();
-        put_strings(file, "/skeletons/S/joint_names", n);
+        const std::uint8_t how = in.byte();
+        if (how % 5 == 0) n.pop_back();
+        put_strings(file, "/skeletons/S/joint_names", n, how % 7 == 6);
         break;
       }
       case 5: {
@@ -304,11 +331,13 @@ std::vector<std::uint8_t> build(Bytes& in) {
         put_numbers(file, "/skeletons/S/end_sites", H5T_IEEE_F64LE, 0,
                     {in.byte() % 3 ? J : J + 1, 3}, {in.special_double()}, false, false);
         break;
-      case 13:
-        put_string_attribute(file, clip, "skeleton", in.byte() % 2 ? "T" : in.name());
+      case 13: {
+        const std::uint8_t how = in.byte();
+        put_string_attribute(file, clip, "skeleton", how % 2 ? "T" : in.name(), how % 4 == 3);
         break;
+      }
       case 14: {
-        const int v = int(in.byte() % 3);
+        const int v = int(in.byte() % 4);
         put_attribute(file, "/", "format_version", H5T_NATIVE_INT, &v);
         break;
       }

@@ -47,10 +47,17 @@ bool link_exists(hid_t location, const std::string& name) {
   return H5Lexists(location, name.c_str(), H5P_DEFAULT) > 0;
 }
 
-Datatype utf8_string_type() {
+bool has_variable_string_attribute(hid_t object, const char* name) {
+  if (H5Aexists(object, name) <= 0) return false;
+  const Attribute attribute(H5Aopen(object, name, H5P_DEFAULT));
+  const Datatype type(attribute ? H5Aget_type(attribute.get()) : H5I_INVALID_HID);
+  return type && H5Tget_class(type.get()) == H5T_STRING && H5Tis_variable_str(type.get()) > 0;
+}
+
+Datatype utf8_string_type(std::size_t size) {
   Datatype type(H5Tcopy(H5T_C_S1));
-  if (!type || H5Tset_size(type.get(), H5T_VARIABLE) < 0 ||
-      H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0)
+  if (!type || H5Tset_size(type.get(), std::max<std::size_t>(size, 1)) < 0 ||
+      H5Tset_strpad(type.get(), H5T_STR_NULLPAD) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0)
     return {};
   return type;
 }
@@ -67,31 +74,26 @@ bool write_attribute(hid_t object, const char* name, hid_t file_type, hid_t memo
   return attribute && H5Awrite(attribute.get(), memory_type, value) >= 0;
 }
 
-// Reads every element of a string attribute or dataset, whose type and space are given, with
-// `read(memory_type, buffer)`.
+// Reads every element of a fixed-length string attribute or dataset, whose type and space are
+// given, with `read(memory_type, buffer)`. Variable-length strings are refused before HDF5 reads
+// them: their bytes live in the file's global heap, whose decoding in libhdf5 1.10 crashes and
+// hangs on damaged files (README, "Nothing lost").
 template <class Read>
 std::optional<std::vector<std::string>> read_strings(hid_t file_type, hid_t space, Read read) {
-  if (H5Tget_class(file_type) != H5T_STRING) return std::nullopt;
+  if (H5Tget_class(file_type) != H5T_STRING || H5Tis_variable_str(file_type) != 0)
+    return std::nullopt;
   const hssize_t count = H5Sget_simple_extent_npoints(space);
-  if (count < 0) return std::nullopt;
+  const std::size_t size = H5Tget_size(file_type);
+  if (count < 0 || size == 0 || size > kMaxStringBytes ||
+      std::size_t(count) > kMaxStringBytes / size)
+    return std::nullopt;
   std::vector<std::string> out(static_cast<std::size_t>(count));
-  // A memory string type of the file's character set (HDF5 converts between none) and kind.
-  const bool variable = H5Tis_variable_str(file_type) > 0;
-  const std::size_t size = variable ? 0 : H5Tget_size(file_type);
+  // A memory type of the file's size, character set and padding: HDF5 copies the bytes as stored.
   const Datatype memory_type(H5Tcopy(H5T_C_S1));
-  if (!memory_type || (!variable && size == 0) ||
-      H5Tset_size(memory_type.get(), variable ? H5T_VARIABLE : size) < 0 ||
+  if (!memory_type || H5Tset_size(memory_type.get(), size) < 0 ||
       H5Tset_cset(memory_type.get(), H5Tget_cset(file_type)) < 0 ||
       H5Tset_strpad(memory_type.get(), H5Tget_strpad(file_type)) < 0)
     return std::nullopt;
-  if (variable) {
-    std::vector<char*> pointers(out.size(), nullptr);
-    if (!read(memory_type.get(), pointers.data())) return std::nullopt;
-    for (std::size_t i = 0; i < out.size(); ++i)
-      if (pointers[i]) out[i] = pointers[i];
-    H5Dvlen_reclaim(memory_type.get(), space, H5P_DEFAULT, pointers.data());
-    return out;
-  }
   std::vector<char> buffer(size * out.size() + 1, '\0');
   if (!read(memory_type.get(), buffer.data())) return std::nullopt;
   for (std::size_t i = 0; i < out.size(); ++i) {
@@ -107,10 +109,10 @@ std::optional<std::vector<std::string>> read_strings(hid_t file_type, hid_t spac
 }  // namespace
 
 bool write_string_attribute(hid_t object, const char* name, std::string_view value) {
-  const Datatype type = utf8_string_type();
-  const std::string text(value);
-  const char* pointer = text.c_str();
-  return type && write_attribute(object, name, type.get(), type.get(), &pointer);
+  const Datatype type = utf8_string_type(value.size());
+  std::string text(value);
+  text.resize(std::max<std::size_t>(text.size(), 1), '\0');  // "" is one NUL: no size-0 type
+  return type && write_attribute(object, name, type.get(), type.get(), text.data());
 }
 
 bool write_int_attribute(hid_t object, const char* name, int value) {
@@ -164,13 +166,15 @@ std::optional<double> read_double_attribute(hid_t object, const char* name) {
 }
 
 bool write_string_dataset(hid_t group, const char* name, const std::vector<std::string>& values) {
-  const Datatype type = utf8_string_type();
+  std::size_t size = 1;
+  for (const auto& v : values) size = std::max(size, v.size());
+  const Datatype type = utf8_string_type(size);
   if (!type) return false;
-  std::vector<const char*> pointers;
-  pointers.reserve(values.size());
-  for (const auto& v : values) pointers.push_back(v.c_str());
+  std::vector<char> bytes(size * values.size(), '\0');
+  for (std::size_t i = 0; i < values.size(); ++i)
+    std::copy(values[i].begin(), values[i].end(), bytes.begin() + i * size);
   const hsize_t dims[1] = {values.size()};
-  return write_dataset(group, name, type.get(), type.get(), dims, pointers.data());
+  return write_dataset(group, name, type.get(), type.get(), dims, bytes.data());
 }
 
 std::optional<std::vector<std::string>> read_string_dataset(hid_t group, const char* name) {

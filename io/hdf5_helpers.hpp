@@ -36,18 +36,24 @@ std::string last_error_detail();
 std::string with_detail(std::string message);
 
 bool link_exists(hid_t location, const std::string& name);  // one path component
+// Whether `object` has an attribute `name` of variable-length strings (which nothing here reads).
+bool has_variable_string_attribute(hid_t object, const char* name);
 
-Datatype utf8_string_type();  // variable-length UTF-8
+// Fixed-length UTF-8 of `size` bytes (at least 1), NUL-padded: what h5py writes for numpy's
+// "S" strings. The library holds no variable-length strings (see read_strings in the .cpp).
+Datatype utf8_string_type(std::size_t size);
+// The most bytes a string attribute or dataset may hold, all elements together.
+inline constexpr std::size_t kMaxStringBytes = std::size_t(16) << 20;
 bool write_string_attribute(hid_t object, const char* name, std::string_view value);
 bool write_int_attribute(hid_t object, const char* name, int value);
 bool write_double_attribute(hid_t object, const char* name, double value);
-// Nullopt when absent or of another class; fixed-length strings are accepted too.
+// Nullopt when absent, of another class, variable-length or over kMaxStringBytes.
 std::optional<std::string> read_string_attribute(hid_t object, const char* name);
 std::optional<long long> read_int_attribute(hid_t object, const char* name);
 std::optional<double> read_double_attribute(hid_t object, const char* name);
 
 bool write_string_dataset(hid_t group, const char* name, const std::vector<std::string>& values);
-// A 1-D string dataset (variable or fixed length); nullopt when absent or not strings.
+// A 1-D fixed-length string dataset; nullopt when absent, not such strings or too large.
 std::optional<std::vector<std::string>> read_string_dataset(hid_t group, const char* name);
 bool write_dataset(hid_t group, const char* name, hid_t file_type, hid_t memory_type,
                    std::span<const hsize_t> dims, const void* data);

@@ -2,7 +2,7 @@
 // The layout of the HDF5 library file (../shared/spec/architecture.md, "The HDF5 library file"),
 // the names in it, and the small records the writer and reader share.
 //
-//   /                       attrs format = "mocap-clean-library", format_version = 1 (int32)
+//   /                       attrs format = "mocap-clean-library", format_version = 2 (int32)
 //   /skeletons/<name>/      joint_names (string[J]), parents (int32[J], -1 = root),
 //                           offsets (float64[J,3]), channels (string[J], e.g. "Zrotation
 //                           Xrotation Yrotation", "" for none), and two additions so that BVH
@@ -12,7 +12,9 @@
 //       rotations           float32 [F,J,4] wxyz;  translations  float32 [F,J,3]
 //   /provenance             attrs method, parameters (JSON), engine_version, input_file,
 //                           created (UTC ISO 8601)
-// Strings are variable-length UTF-8 (h5py reads them as str). A clip group is a group holding
+// Strings are fixed-length UTF-8, NUL-padded (h5py reads them as bytes: `.decode()`, `.asstr()`);
+// version 1 had variable-length ones, which libhdf5 1.10 cannot read safely from a damaged file
+// (scripts/upgrade_library.py converts). A clip group is a group holding
 // a "rotations" dataset; its path below /clips keeps the source's folder layout.
 #include <string>
 #include <string_view>
@@ -23,7 +25,7 @@
 namespace mocap::io {
 
 inline constexpr std::string_view kLibraryFormat = "mocap-clean-library";
-inline constexpr int kLibraryFormatVersion = 1;
+inline constexpr int kLibraryFormatVersion = 2;
 
 struct Provenance {
   std::string method;           // e.g. "bof"

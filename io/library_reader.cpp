@@ -98,7 +98,9 @@ ClipHeader read_header(const State& state, hid_t clip, const std::string& path) 
   };
   const auto skeleton = h5::read_string_attribute(clip, "skeleton");
   if (!skeleton || !is_valid_name(*skeleton))
-    return fail("it has no valid 'skeleton' attribute (the name of a group in /skeletons)");
+    return fail(
+        "it has no valid 'skeleton' attribute (a fixed-length string naming a group in "
+        "/skeletons)");
   header.skeleton = *skeleton;
   const auto frame_time = h5::read_double_attribute(clip, "frame_time");
   if (!frame_time || !valid_frame_time(*frame_time))
@@ -255,7 +257,7 @@ std::shared_ptr<const Skeleton> read_skeleton(hid_t file, const std::string& nam
   }
   auto names = h5::read_string_dataset(g, "joint_names");
   if (!names) {
-    *problem = where + "no readable 'joint_names' strings";
+    *problem = where + "no readable 'joint_names' (fixed-length strings)";
     return nullptr;
   }
   skeleton->joint_names = std::move(*names);
@@ -272,7 +274,7 @@ std::shared_ptr<const Skeleton> read_skeleton(hid_t file, const std::string& nam
   }
   const auto channels = h5::read_string_dataset(g, "channels");
   if (!channels || channels->size() != n) {
-    *problem = where + "'channels' must hold one string per joint";
+    *problem = where + "'channels' must hold one fixed-length string per joint";
     return nullptr;
   }
   for (std::size_t j = 0; j < n; ++j) {
@@ -443,15 +445,27 @@ std::unique_ptr<LibraryReader> LibraryReader::open_state(std::unique_ptr<State> 
     return nullptr;
   }
   const hid_t file = state->file.get();
+  // The version first: it is an integer, and a version 1 file's strings must not be read.
+  const auto version = h5::read_int_attribute(file, "format_version");
+  if (version == 1 && h5::has_variable_string_attribute(file, "format")) {
+    state->fail(error,
+                "a mocap-clean library of format_version 1, whose variable-length strings "
+                "this build does not read (libhdf5 1.10 is not safe on a damaged one); "
+                "convert it to version " +
+                    std::to_string(kLibraryFormatVersion) +
+                    " with scripts/upgrade_library.py (README, \"Library file\")");
+    return nullptr;
+  }
   const auto format = h5::read_string_attribute(file, "format");
   if (format != kLibraryFormat) {
     state->fail(error, "an HDF5 file but not a mocap-clean library: " +
                            (format ? "its 'format' attribute is '" + *format + "'"
-                                   : std::string("no 'format' attribute on /")) +
+                            : h5::has_variable_string_attribute(file, "format")
+                                ? std::string("its 'format' attribute is a variable-length string")
+                                : std::string("no 'format' attribute on /")) +
                            ", expected '" + std::string(kLibraryFormat) + "'");
     return nullptr;
   }
-  const auto version = h5::read_int_attribute(file, "format_version");
   if (!version) {
     state->fail(error, "no integer 'format_version' attribute on /");
     return nullptr;

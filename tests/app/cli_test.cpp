@@ -460,8 +460,8 @@ def visit(name, obj):
     if isinstance(obj, h5py.Group) and "rotations" in obj:
         a = obj.attrs
         pops = obj["pops"][()] if "pops" in obj else None
-        rows.append({"clip": name[len("clips/"):], "method": a["method"],
-                     "parameters": json.loads(a["parameters"]),
+        rows.append({"clip": name[len("clips/"):], "method": a["method"].decode(),
+                     "parameters": json.loads(a["parameters"].decode()),
                      "noise_sigma": float(a["noise_sigma"]) if "noise_sigma" in a else None,
                      "pops": pops.tolist() if pops is not None else None,
                      "pops_shape": list(pops.shape) if pops is not None else None,

@@ -70,6 +70,13 @@ std::string skeleton_group() {
   return "/skeletons/" + skeleton_name(*make_skeleton(kJoints));
 }
 
+hid_t variable_string_type() {
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_cset(type, H5T_CSET_UTF8);
+  return type;
+}
+
 // Opens the library read-write for the damage; closes it after.
 class Editor {
  public:
@@ -96,14 +103,49 @@ class Editor {
     H5Dclose(dataset);
     H5Sclose(space);
   }
+  // Fixed-length strings, as the library holds them.
   void replace_strings(const std::string& path, const std::vector<std::string>& values) {
+    std::size_t size = 1;
+    for (const auto& v : values) size = std::max(size, v.size());
     const hid_t type = H5Tcopy(H5T_C_S1);
-    H5Tset_size(type, H5T_VARIABLE);
+    H5Tset_size(type, size);
     H5Tset_cset(type, H5T_CSET_UTF8);
+    std::vector<char> bytes(size * values.size(), '\0');
+    for (std::size_t i = 0; i < values.size(); ++i)
+      std::copy(values[i].begin(), values[i].end(), bytes.begin() + i * size);
+    replace(path, type, type, {values.size()}, bytes.data());
+    H5Tclose(type);
+  }
+  // Variable-length strings, which the library no longer holds nor reads (format 1 had them).
+  void replace_variable_strings(const std::string& path, const std::vector<std::string>& values) {
+    const hid_t type = variable_string_type();
     std::vector<const char*> pointers;
     for (const auto& v : values) pointers.push_back(v.c_str());
     replace(path, type, type, {values.size()}, pointers.data());
     H5Tclose(type);
+  }
+  void set_variable_string_attribute(const std::string& object, const char* name,
+                                     const std::string& value) {
+    const hid_t o = H5Oopen(file_, object.c_str(), H5P_DEFAULT);
+    ASSERT_GE(o, 0);
+    if (H5Aexists(o, name) > 0) H5Adelete(o, name);
+    const hid_t space = H5Screate(H5S_SCALAR);
+    const hid_t type = variable_string_type();
+    const hid_t a = H5Acreate2(o, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+    const char* text = value.c_str();
+    ASSERT_GE(H5Awrite(a, type, &text), 0);
+    H5Aclose(a);
+    H5Tclose(type);
+    H5Sclose(space);
+    H5Oclose(o);
+  }
+  void set_int_attribute(const std::string& object, const char* name, int value) {
+    const hid_t o = H5Oopen(file_, object.c_str(), H5P_DEFAULT);
+    ASSERT_GE(o, 0);
+    const hid_t a = H5Aopen(o, name, H5P_DEFAULT);
+    ASSERT_GE(H5Awrite(a, H5T_NATIVE_INT, &value), 0);
+    H5Aclose(a);
+    H5Oclose(o);
   }
   void set_double_attribute(const std::string& object, const char* name, double value) {
     const hid_t o = H5Oopen(file_, object.c_str(), H5P_DEFAULT);
@@ -246,6 +288,110 @@ TEST_F(HostileLibrary, DuplicateJointNames) {
   expect_check_fails("must be unique");
   expect_filter_fails("must be unique");
   expect_export_fails("must be unique");
+}
+
+// Variable-length strings live in HDF5's global heap, whose decoding in libhdf5 1.10 crashes and
+// hangs on damaged files (the fuzz findings in README "Nothing lost"): refused before reading.
+TEST_F(HostileLibrary, VariableLengthJointNamesAreRefusedUnread) {
+  Editor(lib()).replace_variable_strings(skeleton_group() + "/joint_names",
+                                         make_skeleton(kJoints)->joint_names);
+  expect_check_fails("no readable 'joint_names' (fixed-length strings)");
+  expect_filter_fails("no readable 'joint_names' (fixed-length strings)");
+}
+
+TEST_F(HostileLibrary, AVariableLengthSkeletonAttributeIsRefusedUnread) {
+  Editor(lib()).set_variable_string_attribute("/clips/a/victim", "skeleton",
+                                              skeleton_name(*make_skeleton(kJoints)));
+  expect_check_fails("no valid 'skeleton' attribute (a fixed-length string");
+  expect_filter_fails("no valid 'skeleton' attribute (a fixed-length string");
+  expect_export_fails("no valid 'skeleton' attribute (a fixed-length string");
+}
+
+// A library of format 1 (variable-length strings) is refused with the way to convert it; its
+// strings are not read, not even the 'format' attribute.
+TEST_F(HostileLibrary, FormatVersionOneIsRefusedWithTheWayToConvertIt) {
+  {
+    Editor edit(lib());
+    edit.set_variable_string_attribute("/", "format", "mocap-clean-library");
+    edit.set_int_attribute("/", "format_version", 1);
+  }
+  for (const char* command : {"info --check ", "filter ", "export "}) {
+    const std::string out =
+        std::string(command) == "info --check " ? "" : " -o " + quoted(dir_ / "out");
+    const auto r = test::run_cli(command + quoted(lib()) + out);
+    EXPECT_EQ(r.exit_code, 2) << command << r.out << r.err;
+    EXPECT_NE(r.err.find(lib().string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("format_version 1"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("scripts/upgrade_library.py"), std::string::npos) << r.err;
+  }
+  // A variable-length 'format' on a file that claims version 2 is not read either.
+  Editor(lib()).set_int_attribute("/", "format_version", 2);
+  const auto r = test::run_cli("info " + quoted(lib()));
+  EXPECT_EQ(r.exit_code, 2) << r.out << r.err;
+  EXPECT_NE(r.err.find("'format' attribute is a variable-length string"), std::string::npos)
+      << r.err;
+}
+
+// What a version 1 library held: the same file with variable-length strings everywhere.
+void make_format_one(const fs::path& path) {
+  Editor edit(path);
+  for (const char* root : {"Root", "Hips"}) {
+    const auto skeleton = make_skeleton(kJoints, root);
+    const std::string group = "/skeletons/" + skeleton_name(*skeleton);
+    edit.replace_variable_strings(group + "/joint_names", skeleton->joint_names);
+    std::vector<std::string> channels(kJoints, "Zrotation Xrotation Yrotation");
+    channels[0] = "Xposition Yposition Zposition Zrotation Xrotation Yrotation";
+    edit.replace_variable_strings(group + "/channels", channels);
+  }
+  for (const auto& [clip, root] :
+       {std::pair{"/clips/a/good", "Root"}, {"/clips/a/victim", "Hips"}}) {
+    edit.set_variable_string_attribute(clip, "skeleton",
+                                       skeleton_name(*make_skeleton(kJoints, root)));
+    edit.set_variable_string_attribute(clip, "source", "synthetic.bvh");
+  }
+  edit.set_variable_string_attribute("/", "format", "mocap-clean-library");
+  edit.set_int_attribute("/", "format_version", 1);
+}
+
+// scripts/upgrade_library.py turns a version 1 library into one this build reads, unchanged.
+TEST_F(HostileLibrary, TheUpgradeScriptConvertsFormatOneLosslessly) {
+  if (std::system("/usr/bin/python3 -c 'import h5py' >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "h5py is not importable by /usr/bin/python3: upgrade script not tested";
+  const fs::path pristine = dir_ / "pristine.h5", upgraded = dir_ / "upgraded.h5";
+  write_library(pristine);
+  make_format_one(lib());
+  const fs::path script =
+      fs::path(__FILE__).parent_path().parent_path().parent_path() / "scripts/upgrade_library.py";
+  const auto run = [&](const fs::path& in, const fs::path& out) {
+    return std::system(("/usr/bin/python3 '" + script.string() + "' " + quoted(in) + " " +
+                        quoted(out) + " >/dev/null 2>&1")
+                           .c_str());
+  };
+  ASSERT_EQ(run(lib(), upgraded), 0);
+  EXPECT_NE(run(lib(), upgraded), 0) << "an existing output must be refused";
+  EXPECT_NE(run(upgraded, dir_ / "again.h5"), 0) << "only version 1 is converted";
+  EXPECT_FALSE(fs::exists(dir_ / "again.h5"));
+  EXPECT_FALSE(fs::exists(dir_ / "again.h5.tmp"));
+  std::string error;
+  const auto before = LibraryReader::open(pristine, &error);
+  ASSERT_TRUE(before) << error;
+  const auto after = LibraryReader::open(upgraded, &error);
+  ASSERT_TRUE(after) << error;
+  ASSERT_EQ(after->clips().size(), before->clips().size());
+  for (const auto& header : before->clips()) {
+    const auto a = before->read_clip(header.path, &error);
+    ASSERT_TRUE(a) << error;
+    const auto b = after->read_clip(header.path, &error);
+    ASSERT_TRUE(b) << header.path << ": " << error;
+    EXPECT_EQ(b->rotations, a->rotations) << header.path;
+    EXPECT_EQ(b->translations, a->translations) << header.path;
+    EXPECT_EQ(b->skeleton->joint_names, a->skeleton->joint_names) << header.path;
+    EXPECT_EQ(b->skeleton->channels, a->skeleton->channels) << header.path;
+    EXPECT_EQ(b->source, a->source) << header.path;
+    EXPECT_EQ(b->frame_time, a->frame_time) << header.path;
+  }
+  const auto check = test::run_cli("info --check " + quoted(upgraded));
+  EXPECT_EQ(check.exit_code, 0) << check.err;
 }
 
 TEST_F(HostileLibrary, InfiniteFrameTime) {

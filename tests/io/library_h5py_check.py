@@ -20,6 +20,16 @@ def check(condition, message):
     return condition
 
 
+def text(value):
+    """A string attribute as h5py reads it: fixed-length UTF-8 comes as bytes; None otherwise."""
+    if not isinstance(value, bytes):
+        return None
+    try:
+        return value.decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+
+
 def check_skeleton(name, group):
     where = f"/skeletons/{name}"
     names = group["joint_names"].asstr()[()] if "joint_names" in group else None
@@ -47,11 +57,11 @@ def check_skeleton(name, group):
 
 def check_clip(path, group, skeleton_joints):
     where = f"/clips/{path}"
-    skeleton = group.attrs.get("skeleton")
-    if not check(isinstance(skeleton, str), f"{where}: skeleton attr is not str"):
+    skeleton = text(group.attrs.get("skeleton"))
+    if not check(skeleton is not None, f"{where}: skeleton attr is not UTF-8 bytes"):
         return
     check(skeleton in skeleton_joints, f"{where}: skeleton {skeleton!r} not in /skeletons")
-    check(isinstance(group.attrs.get("source"), str), f"{where}: source attr is not str")
+    check(text(group.attrs.get("source")) is not None, f"{where}: source attr is not UTF-8 bytes")
     frame_time = group.attrs.get("frame_time")
     check(isinstance(frame_time, np.floating) and frame_time > 0, f"{where}: frame_time")
     rotations, translations = group["rotations"], group["translations"]
@@ -71,9 +81,9 @@ def check_clip(path, group, skeleton_joints):
 
 def check_file(path, args):
     with h5py.File(path, "r") as f:
-        check(f.attrs.get("format") == "mocap-clean-library", "root attr format")
+        check(text(f.attrs.get("format")) == "mocap-clean-library", "root attr format")
         version = f.attrs.get("format_version")
-        check(isinstance(version, np.integer) and version == 1, "root attr format_version == 1")
+        check(isinstance(version, np.integer) and version == 2, "root attr format_version == 2")
         skeleton_joints = {name: check_skeleton(name, g) for name, g in f["skeletons"].items()}
         check(len(skeleton_joints) == args.skeletons,
               f"{len(skeleton_joints)} skeletons, expected {args.skeletons}")
@@ -92,8 +102,8 @@ def check_file(path, args):
         if args.provenance:
             p = f["provenance"].attrs
             for key in ("method", "parameters", "engine_version", "input_file", "created"):
-                check(isinstance(p.get(key), str), f"/provenance attr {key} is not str")
-            check(p.get("created", "").endswith("Z"), "/provenance created is not UTC")
+                check(text(p.get(key)) is not None, f"/provenance attr {key} is not UTF-8 bytes")
+            check((text(p.get("created")) or "").endswith("Z"), "/provenance created is not UTC")
 
 
 def main():
