@@ -41,6 +41,33 @@ void shuffle_bytes(std::span<const std::uint8_t> in, std::size_t element_size,
   std::copy(in.begin() + std::ptrdiff_t(whole), in.end(), out.begin() + std::ptrdiff_t(whole));
 }
 
+void unshuffle_bytes(std::span<const std::uint8_t> in, std::size_t element_size,
+                     std::span<std::uint8_t> out) {
+  const std::size_t n = element_size > 0 ? in.size() / element_size : 0;
+  if (element_size <= 1 || n <= 1) {  // as shuffle_bytes left them
+    std::copy(in.begin(), in.end(), out.begin());
+    return;
+  }
+  if (element_size == 4) {  // float32, the store's only type: the four planes in one pass
+    const std::uint8_t *b0 = in.data(), *b1 = b0 + n, *b2 = b1 + n, *b3 = b2 + n;
+    std::uint8_t* dst = out.data();
+    for (std::size_t i = 0; i < n; ++i, dst += 4) {
+      dst[0] = b0[i];
+      dst[1] = b1[i];
+      dst[2] = b2[i];
+      dst[3] = b3[i];
+    }
+  } else {
+    for (std::size_t b = 0; b < element_size; ++b) {
+      const std::uint8_t* src = in.data() + b * n;
+      std::uint8_t* dst = out.data() + b;
+      for (std::size_t i = 0; i < n; ++i) dst[i * element_size] = src[i];
+    }
+  }
+  const std::size_t whole = n * element_size;
+  std::copy(in.begin() + std::ptrdiff_t(whole), in.end(), out.begin() + std::ptrdiff_t(whole));
+}
+
 bool lz4_filter_encode(std::span<const std::uint8_t> in, std::vector<std::uint8_t>& out) {
   if (in.size() > std::size_t(std::numeric_limits<std::int32_t>::max())) return false;
   const std::size_t total = in.size();
@@ -93,6 +120,39 @@ bool lz4_filter_decode(std::span<const std::uint8_t> in, std::vector<std::uint8_
   return true;
 }
 
+bool lz4_filter_decode_into(std::span<const std::uint8_t> in, std::span<std::uint8_t> out) {
+  if (in.size() < 12) return false;
+  const std::uint64_t total = read_be(in.data(), 8);
+  std::uint64_t block_size = std::min<std::uint64_t>(read_be(in.data() + 8, 4), total);
+  if (total != out.size() || total > std::uint64_t(std::numeric_limits<std::int32_t>::max()))
+    return false;
+  if (block_size == 0 && total > 0) return false;
+  std::size_t at = 12;
+  for (std::uint64_t done = 0; done < total; done += block_size) {
+    block_size = std::min(block_size, total - done);
+    if (at + 4 > in.size()) return false;
+    const std::uint64_t stored = read_be(in.data() + at, 4);
+    at += 4;
+    if (stored > in.size() - at) return false;
+    char* dst = reinterpret_cast<char*>(out.data() + done);
+    const char* src = reinterpret_cast<const char*>(in.data() + at);
+    if (stored == block_size) {
+      std::memcpy(dst, src, std::size_t(block_size));
+    } else if (LZ4_decompress_safe(src, dst, int(stored), int(block_size)) != int(block_size)) {
+      return false;
+    }
+    at += std::size_t(stored);
+  }
+  return true;
+}
+
+bool deflate_decode_into(std::span<const std::uint8_t> in, std::span<std::uint8_t> out) {
+  uLongf size = uLongf(out.size());
+  // uncompress() stops at the end of the stream (HDF5's filter ignores what follows it too) and
+  // fails when the stream would not fit; a shorter one is caught by the size.
+  return uncompress(out.data(), &size, in.data(), uLong(in.size())) == Z_OK && size == out.size();
+}
+
 bool deflate_encode(std::span<const std::uint8_t> in, int level, std::vector<std::uint8_t>& out) {
   const std::size_t base = out.size();
   uLongf stored = compressBound(uLong(in.size()));
@@ -130,6 +190,17 @@ std::uint32_t fletcher32(std::span<const std::uint8_t> bytes) {
   return sum2 << 16 | sum1;
 }
 
+bool fletcher32_matches(std::span<const std::uint8_t> stored) {
+  if (stored.size() < 4) return false;
+  const std::uint8_t* tail = stored.data() + stored.size() - 4;
+  const std::uint32_t recorded = std::uint32_t(tail[0]) | std::uint32_t(tail[1]) << 8 |
+                                 std::uint32_t(tail[2]) << 16 | std::uint32_t(tail[3]) << 24;
+  const std::uint32_t sum = fletcher32(stored.first(stored.size() - 4));
+  // H5Z_filter_fletcher32's "reversed" checksum, byte-swapped within each 16-bit half.
+  const std::uint32_t reversed = (sum & 0x00ff00ffu) << 8 | (sum & 0xff00ff00u) >> 8;
+  return recorded == sum || recorded == reversed;
+}
+
 namespace {
 
 bool encode_filters(std::span<const std::uint8_t> raw, Compression compression,
@@ -155,6 +226,36 @@ bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression, bo
     for (int i = 0; i < 4; ++i) out.push_back(std::uint8_t(sum >> (8 * i)));
   }
   return true;
+}
+
+std::string decode_chunk(std::span<const std::uint8_t> stored, Compression compression,
+                         bool checksum, std::span<std::uint8_t> raw,
+                         std::vector<std::uint8_t>& scratch) {
+  // Filters undo in reverse: the checksum covers the compressed bytes, so it comes first.
+  if (checksum) {
+    if (!fletcher32_matches(stored)) return "fails its Fletcher32 checksum (the file is damaged)";
+    stored = stored.first(stored.size() - 4);
+  }
+  const std::string size = std::to_string(raw.size());
+  switch (compression) {
+    case Compression::none:
+      if (stored.size() != raw.size())
+        return "holds " + std::to_string(stored.size()) + " bytes, not the " + size +
+               " of an uncompressed chunk (the file is damaged)";
+      std::memcpy(raw.data(), stored.data(), raw.size());
+      return {};
+    case Compression::lz4:
+    case Compression::deflate:
+      scratch.resize(raw.size());
+      if (compression == Compression::lz4 ? !lz4_filter_decode_into(stored, scratch)
+                                          : !deflate_decode_into(stored, scratch))
+        return std::string("is not a valid ") +
+               (compression == Compression::lz4 ? "LZ4" : "deflate") + " chunk of " + size +
+               " bytes (the file is damaged)";
+      unshuffle_bytes(scratch, sizeof(float), raw);
+      return {};
+  }
+  return "has an unknown compression";
 }
 
 }  // namespace mocap::io

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <new>
 #include <set>
@@ -632,6 +633,16 @@ std::string read_stored_chunks(hid_t group, const char* name, int frames, int jo
   }
   const std::size_t chunks =
       (std::size_t(frames) + std::size_t(out.chunk_frames) - 1) / std::size_t(out.chunk_frames);
+  // One allocation for the dataset's chunks, not a copy per doubling, when their sizes add up to
+  // no more than the data (with room for incompressible chunks); else it grows as it reads.
+  std::size_t total = 0;
+  for (std::size_t k = 0; k < chunks; ++k) {
+    const hsize_t offset[3] = {hsize_t(k) * hsize_t(out.chunk_frames), 0, 0};
+    hsize_t size = 0;
+    if (H5Dget_chunk_storage_size(dataset.get(), offset, &size) >= 0) total += std::size_t(size);
+  }
+  const std::size_t data = std::size_t(frames) * std::size_t(joints) * std::size_t(channels) * 4;
+  if (total <= 2 * data + (std::size_t(1) << 20)) out.bytes.reserve(out.bytes.size() + total);
   for (std::size_t k = 0; k < chunks; ++k) {
     const hsize_t offset[3] = {hsize_t(k) * hsize_t(out.chunk_frames), 0, 0};
     hsize_t size = 0;
@@ -666,37 +677,244 @@ std::string read_stored_chunks(hid_t group, const char* name, int frames, int jo
 
 }  // namespace
 
-std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
-                                             std::string* error) const {
-  const h5::ErrorSilence quiet;
-  const std::string where = "clip '" + clip_path + "': ";
-  auto opened = open_clip(*state_, clip_path, error);
-  if (!opened) return std::nullopt;
-  const int joints = opened->skeleton->joint_count();
-  Clip clip;
-  clip.skeleton = opened->skeleton;
-  clip.frame_time = opened->header.frame_time;
-  clip.frames = opened->header.frames;
-  clip.source = opened->header.source;
+namespace {
+
+// Allocates a clip's motion: out of memory is a message, not an exception.
+std::string allocate_motion(Clip& clip, int joints) {
   const std::size_t samples = std::size_t(clip.frames) * std::size_t(joints);
   try {
     clip.rotations.resize(samples * 4);
     clip.translations.resize(samples * 3);
   } catch (const std::bad_alloc&) {
-    state_->fail(error, where + "out of memory for its " + std::to_string(clip.frames) +
-                            " frames x " + std::to_string(joints) + " joints");
-    return std::nullopt;
+    return "out of memory for its " + std::to_string(clip.frames) + " frames x " +
+           std::to_string(joints) + " joints";
   }
+  return {};
+}
+
+// The clip's motion read through HDF5's own filters (H5Dread): for layouts read_raw_chunks()
+// leaves to HDF5.
+std::optional<Clip> read_through_hdf5(const State& state, const OpenedClip& opened,
+                                      const std::string& where, std::string* error) {
+  const int joints = opened.skeleton->joint_count();
+  Clip clip;
+  clip.skeleton = opened.skeleton;
+  clip.frame_time = opened.header.frame_time;
+  clip.frames = opened.header.frames;
+  clip.source = opened.header.source;
+  std::string problem = allocate_motion(clip, joints);
   const std::vector<hsize_t> rotations = {hsize_t(clip.frames), hsize_t(joints), 4};
   const std::vector<hsize_t> translations = {hsize_t(clip.frames), hsize_t(joints), 3};
-  std::string problem = read_floats(opened->group.get(), "rotations", rotations, clip.rotations);
   if (problem.empty())
-    problem = read_floats(opened->group.get(), "translations", translations, clip.translations);
+    problem = read_floats(opened.group.get(), "rotations", rotations, clip.rotations);
+  if (problem.empty())
+    problem = read_floats(opened.group.get(), "translations", translations, clip.translations);
+  if (!problem.empty()) {
+    state.fail(error, where + problem);
+    return std::nullopt;
+  }
+  return clip;
+}
+
+// The filters of a motion dataset as (compression, checksum) when decode_chunk() undoes them
+// exactly as HDF5 would: known_pipeline()'s, with the shuffle over 4-byte elements.
+std::optional<std::pair<Compression, bool>> raw_pipeline(hid_t properties) {
+  const auto pipeline = known_pipeline(properties);
+  if (!pipeline || pipeline->first == Compression::none) return pipeline;
+  unsigned flags = 0;
+  std::size_t values = 1;
+  unsigned element_size = 0;
+  if (H5Pget_filter_by_id2(properties, H5Z_FILTER_SHUFFLE, &flags, &values, &element_size, 0,
+                           nullptr, nullptr) < 0 ||
+      values < 1 || element_size != sizeof(float))
+    return std::nullopt;
+  return pipeline;
+}
+
+// Reads the chunks of the motion dataset `name` ([frames][joints][channels]) as stored into
+// `out`, each by H5Dread_chunk; "" or a problem. Sets *unusual, reading nothing, when HDF5 must
+// decode the dataset instead: not little-endian float32, chunks not of whole frames, filters
+// other than `pipeline`'s (set from the first dataset read, when `first`), a chunk stored with
+// a filter skipped, or a chunk stored larger than its codec makes one. That last bound keeps
+// the memory read to the dataset's real size: motion_dims() bounded the chunk shape by the data
+// and every stored chunk by the file, and nothing is allocated before all sizes are checked.
+std::string read_raw_chunks(hid_t group, const char* name, int frames, int joints, int channels,
+                            std::pair<Compression, bool>& pipeline, bool first, EncodedDataset& out,
+                            bool* unusual) {
+  const h5::Dataset dataset(H5Dopen2(group, name, H5P_DEFAULT));
+  const h5::PropertyList properties(dataset ? H5Dget_create_plist(dataset.get()) : H5I_INVALID_HID);
+  const h5::Datatype type(dataset ? H5Dget_type(dataset.get()) : H5I_INVALID_HID);
+  if (!dataset || !properties || !type)
+    return h5::with_detail(std::string("cannot open its '") + name + "' dataset");
+  const auto filters = raw_pipeline(properties.get());
+  hsize_t chunk[3] = {0, 0, 0};
+  if (H5Tequal(type.get(), H5T_IEEE_F32LE) <= 0 || !filters || (!first && *filters != pipeline) ||
+      H5Pget_layout(properties.get()) != H5D_CHUNKED ||
+      H5Pget_chunk(properties.get(), 3, chunk) != 3 || chunk[0] == 0 ||
+      chunk[1] != hsize_t(joints) || chunk[2] != hsize_t(channels)) {
+    *unusual = true;
+    return {};
+  }
+  pipeline = *filters;
+  out.frames = frames;
+  out.joints = joints;
+  out.channels = channels;
+  if (frames == 0) {  // no chunk to read (and motion_dims() bounds no chunk shape)
+    out.bytes.clear();
+    return {};
+  }
+  // Bounded by motion_dims(): at most max(the data, 1 MiB).
+  const std::size_t chunk_bytes =
+      std::size_t(chunk[0]) * std::size_t(joints) * std::size_t(channels) * sizeof(float);
+  out.chunk_frames = int(chunk[0]);
+  const std::size_t checksum_bytes = pipeline.second ? 4 : 0;
+  const std::size_t most = pipeline.first == Compression::none
+                               ? chunk_bytes + checksum_bytes
+                               : chunk_bytes + chunk_bytes / 64 + 1024 + checksum_bytes;
+  const std::size_t chunks =
+      (std::size_t(frames) + std::size_t(chunk[0]) - 1) / std::size_t(chunk[0]);
+  std::vector<std::size_t> sizes(chunks);
+  std::size_t total = 0;
+  for (std::size_t k = 0; k < chunks; ++k) {
+    const hsize_t offset[3] = {hsize_t(k) * chunk[0], 0, 0};
+    unsigned mask = 0;
+    haddr_t address = 0;
+    hsize_t size = 0;
+    if (H5Dget_chunk_info_by_coord(dataset.get(), offset, &mask, &address, &size) < 0)
+      return h5::with_detail("cannot find its '" + std::string(name) + "' chunk at frame " +
+                             std::to_string(offset[0]));
+    const bool exact = pipeline.first != Compression::none || size == most;
+    if (mask != 0 || size == 0 || size > most || !exact) {
+      *unusual = true;
+      return {};
+    }
+    sizes[k] = std::size_t(size);
+    total += sizes[k];
+  }
+  // Shrinking keeps a recycled buffer's pages; only growth is zero-filled.
+  out.bytes.resize(total);
+  out.chunk_ends.clear();
+  out.chunk_ends.reserve(chunks);
+  std::size_t at = 0;
+  for (std::size_t k = 0; k < chunks; ++k) {
+    const hsize_t offset[3] = {hsize_t(k) * chunk[0], 0, 0};
+    std::uint32_t mask = 0;
+    if (H5Dread_chunk(dataset.get(), H5P_DEFAULT, offset, &mask, out.bytes.data() + at) < 0)
+      return h5::with_detail("cannot read its '" + std::string(name) + "' chunk at frame " +
+                             std::to_string(offset[0]));
+    if (mask != 0) {
+      *unusual = true;
+      return {};
+    }
+    at += sizes[k];
+    out.chunk_ends.push_back(at);
+  }
+  return {};
+}
+
+// Decodes the chunks of `in` into `out` (frames x joints x channels floats, allocated); "" or
+// the damaged chunk and why.
+std::string decode_dataset(const EncodedDataset& in, const char* name, Compression compression,
+                           bool checksum, std::vector<float>& out) {
+  // Per thread and kept: a clip's chunks decode without fresh allocations (and page faults).
+  thread_local std::vector<std::uint8_t> scratch, last;
+  const std::size_t chunk_floats =
+      std::size_t(in.chunk_frames) * std::size_t(in.joints) * std::size_t(in.channels);
+  auto* bytes = reinterpret_cast<std::uint8_t*>(out.data());
+  for (std::size_t k = 0; k < in.chunk_count(); ++k) {
+    const std::size_t begin = k * chunk_floats;
+    if (begin >= out.size()) return std::string("its '") + name + "' dataset has extra chunks";
+    // The last chunk is padded past the clip's end: decoded aside, its frames copied.
+    const std::size_t floats = std::min(chunk_floats, out.size() - begin);
+    std::span<std::uint8_t> target(bytes + begin * sizeof(float), chunk_floats * sizeof(float));
+    if (floats < chunk_floats) {
+      last.resize(chunk_floats * sizeof(float));
+      target = last;
+    }
+    if (std::string problem = decode_chunk(in.chunk(k), compression, checksum, target, scratch);
+        !problem.empty())
+      return std::string("its '") + name + "' chunk at frame " +
+             std::to_string(k * std::size_t(in.chunk_frames)) + " " + problem;
+    if (floats < chunk_floats)
+      std::memcpy(bytes + begin * sizeof(float), last.data(), floats * sizeof(float));
+  }
+  if (in.chunk_count() * chunk_floats < out.size())
+    return std::string("its '") + name + "' dataset misses chunks";
+  return {};
+}
+
+}  // namespace
+
+std::optional<StoredClip> LibraryReader::read_stored(const std::string& clip_path,
+                                                     std::string* error,
+                                                     StoredClip recycled) const {
+  const h5::ErrorSilence quiet;
+  const std::string where = "clip '" + clip_path + "': ";
+  auto opened = open_clip(*state_, clip_path, error);
+  if (!opened) return std::nullopt;
+  const int joints = opened->skeleton->joint_count();
+  StoredClip out;
+  out.where = state_->message(where);
+  EncodedClip& clip = out.chunks;
+  clip.rotations.bytes = std::move(recycled.chunks.rotations.bytes);
+  clip.translations.bytes = std::move(recycled.chunks.translations.bytes);
+  clip.skeleton = opened->skeleton;
+  clip.frame_time = opened->header.frame_time;
+  clip.frames = opened->header.frames;
+  clip.source = opened->header.source;
+  std::pair<Compression, bool> pipeline{Compression::none, false};
+  bool unusual = false;
+  std::string problem;
+  try {
+    problem = read_raw_chunks(opened->group.get(), "rotations", clip.frames, joints, 4, pipeline,
+                              true, clip.rotations, &unusual);
+    if (problem.empty() && !unusual)
+      problem = read_raw_chunks(opened->group.get(), "translations", clip.frames, joints, 3,
+                                pipeline, false, clip.translations, &unusual);
+  } catch (const std::bad_alloc&) {
+    problem = "out of memory for its stored chunks";
+  }
   if (!problem.empty()) {
     state_->fail(error, where + problem);
     return std::nullopt;
   }
+  clip.compression = pipeline.first;
+  clip.checksum = pipeline.second;
+  if (unusual) {
+    out.chunks = EncodedClip{};
+    out.decoded = read_through_hdf5(*state_, *opened, where, error);
+    if (!out.decoded) return std::nullopt;
+  }
+  return out;
+}
+
+std::optional<Clip> LibraryReader::decode_stored(StoredClip& stored, std::string* error) {
+  if (stored.decoded) return std::move(stored.decoded);
+  const EncodedClip& in = stored.chunks;
+  Clip clip;
+  clip.skeleton = in.skeleton;
+  clip.frame_time = in.frame_time;
+  clip.frames = in.frames;
+  clip.source = in.source;
+  std::string problem = allocate_motion(clip, in.skeleton ? in.skeleton->joint_count() : 0);
+  if (problem.empty())
+    problem =
+        decode_dataset(in.rotations, "rotations", in.compression, in.checksum, clip.rotations);
+  if (problem.empty())
+    problem = decode_dataset(in.translations, "translations", in.compression, in.checksum,
+                             clip.translations);
+  if (!problem.empty()) {
+    if (error) *error = stored.where + problem;
+    return std::nullopt;
+  }
   return clip;
+}
+
+std::optional<Clip> LibraryReader::read_clip(const std::string& clip_path,
+                                             std::string* error) const {
+  auto stored = read_stored(clip_path, error);
+  if (!stored) return std::nullopt;
+  return decode_stored(*stored, error);
 }
 
 namespace {

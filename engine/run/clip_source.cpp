@@ -67,4 +67,34 @@ std::optional<Clip> LibrarySource::read(std::size_t i, std::string* error) {
   return reader_->read_clip(header.path, error);
 }
 
+bool LibrarySource::load(std::size_t i, Loaded& loaded, std::string* error) {
+  const auto& header = reader_->clips()[i];
+  if (!header.error.empty()) {
+    if (error) *error = header.error;
+    return false;
+  }
+  io::StoredClip recycled;
+  {
+    const std::lock_guard lock(spare_mutex_);
+    if (!spare_.empty()) {
+      recycled = std::move(spare_.back());
+      spare_.pop_back();
+    }
+  }
+  loaded.stored = reader_->read_stored(header.path, error, std::move(recycled));
+  return loaded.stored.has_value();
+}
+
+std::optional<Clip> LibrarySource::decode(std::size_t, Loaded&& loaded, std::string* error) {
+  if (!loaded.stored) return std::move(loaded.clip);
+  std::optional<Clip> clip = io::LibraryReader::decode_stored(*loaded.stored, error);
+  // A few spare buffers cover the clips between the reader and the decoding tasks; each holds
+  // at most one clip's stored chunks.
+  constexpr std::size_t kSpares = 4;
+  const std::lock_guard lock(spare_mutex_);
+  if (spare_.size() < kSpares) spare_.push_back(std::move(*loaded.stored));
+  loaded.stored.reset();
+  return clip;
+}
+
 }  // namespace mocap::engine

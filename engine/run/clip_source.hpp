@@ -2,6 +2,7 @@
 // Where a job's clips come from: BVH files, or the clips of a library file. Read from the
 // graph's serial reader stage only.
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -26,10 +27,12 @@ class ClipSource {
   virtual std::optional<Clip> read(std::size_t index, std::string* error) = 0;
 
   // read() in two halves for the task graph: load() in its serial reader stage (the file or
-  // HDF5 access), decode() in a parallel task (parsing). By default load() does all of read().
+  // HDF5 access), decode() in a parallel task (parsing, chunk decoding). By default load() does
+  // all of read().
   struct Loaded {
     std::optional<Clip> clip;
-    std::string bytes;  // a BVH file's text, for decode()
+    std::string bytes;                     // a BVH file's text, for decode()
+    std::optional<io::StoredClip> stored;  // a library clip's chunks as stored, for decode()
   };
   virtual bool load(std::size_t index, Loaded& loaded, std::string* error) {
     loaded.clip = read(index, error);
@@ -70,10 +73,16 @@ class LibrarySource final : public ClipSource {
   std::string relative_path(std::size_t i) const override { return clip_path(i) + ".bvh"; }
   std::size_t cost(std::size_t i) const override;
   std::optional<Clip> read(std::size_t i, std::string* error) override;
+  // The clip's chunks as stored (LibraryReader::read_stored); their decoding in decode(), which
+  // hands the chunk buffers back for a later load() to reuse.
+  bool load(std::size_t i, Loaded& loaded, std::string* error) override;
+  std::optional<Clip> decode(std::size_t i, Loaded&& loaded, std::string* error) override;
   const io::LibraryReader& reader() const { return *reader_; }
 
  private:
   std::unique_ptr<io::LibraryReader> reader_;
+  std::mutex spare_mutex_;  // decode() runs on several threads
+  std::vector<io::StoredClip> spare_;
 };
 
 }  // namespace mocap::engine

@@ -13,8 +13,8 @@ namespace mocap::engine {
 class StageTimes {
  public:
   enum Stage {
-    read,       // file or HDF5 access (serial; HDF5 decoding too)
-    parse,      // BVH parsing (parallel across clips)
+    read,       // file or HDF5 access (serial; a library's chunks as stored)
+    parse,      // BVH parsing or a library's chunk decoding (parallel across clips)
     check,      // value checks and sign continuity
     condition,  // joint classification and the pop stage
     resolve,    // noise estimates and automatic parameters
