@@ -81,7 +81,8 @@ hid_t string_type(std::size_t size) {
   return type;
 }
 
-// The bytes to write for `values` in a type of string_type(size).
+// The bytes to write for `values` in a type of string_type(size); `pointers` (for variable-length
+// strings) point into `values`.
 std::vector<char> string_bytes(const std::vector<std::string>& values, std::size_t size,
                                std::vector<const char*>& pointers) {
   std::vector<char> bytes(size * values.size(), '\0');
@@ -182,8 +183,9 @@ void put_string_attribute(hid_t file, const std::string& object, const char* nam
                           const std::string& value, bool variable = false) {
   const std::size_t size = variable ? 0 : std::max<std::size_t>(value.size(), 1);
   const hid_t type = string_type(size);
+  const std::vector<std::string> values{value};  // alive while `pointers` point into it
   std::vector<const char*> pointers;
-  const std::vector<char> bytes = string_bytes({value}, size, pointers);
+  const std::vector<char> bytes = string_bytes(values, size, pointers);
   put_attribute(file, object, name, type,
                 variable ? static_cast<const void*>(pointers.data()) : bytes.data());
   H5Tclose(type);
