@@ -163,7 +163,7 @@ Outcome run_clip(const FilterSettings& settings, Clip input, int threads) {
   make_hemisphere_continuous(input.rotation_span());
   const bool guard = settings.guard_motion && settings.method != engine::Method::none;
   Clip raw;
-  if (guard) raw = input;
+  if (guard) raw = motion_copy(input);
   out.conditioning = engine::condition_clip(settings, input);
   out.resolved = engine::resolve_for_clip(settings, input, out.conditioning.garbage);
   engine::MotionMeasure before;
