@@ -307,6 +307,20 @@ TEST_F(HostileLibrary, AVariableLengthSkeletonAttributeIsRefusedUnread) {
   expect_export_fails("no valid 'skeleton' attribute (a fixed-length string");
 }
 
+// Memory follows a number in the file (case 2) for strings too: a string type of 64 MB is
+// refused from its size, before a byte is allocated or read (h5::kMaxStringBytes, 16 MB).
+TEST_F(HostileLibrary, AStringTypeLargerThanTheLimitIsRefusedUnread) {
+  {
+    Editor edit(lib());
+    const hid_t type = H5Tcopy(H5T_C_S1);
+    ASSERT_GE(H5Tset_size(type, std::size_t(64) << 20), 0);
+    edit.replace(skeleton_group() + "/joint_names", type, type, {1}, nullptr);
+    H5Tclose(type);
+  }
+  EXPECT_LT(fs::file_size(lib()), std::uintmax_t(1) << 20) << "the test must not store 64 MB";
+  expect_check_fails("no readable 'joint_names' (fixed-length strings)");
+}
+
 // A library of format 1 (variable-length strings) is refused with the way to convert it; its
 // strings are not read, not even the 'format' attribute.
 TEST_F(HostileLibrary, FormatVersionOneIsRefusedWithTheWayToConvertIt) {
