@@ -46,9 +46,9 @@ Clip make_clip() {
   return clip;
 }
 
-void write_library(const fs::path& path, Compression compression) {
+void write_library(const fs::path& path, Compression compression, bool checksum = false) {
   std::string error;
-  auto writer = LibraryWriter::create(path, compression, &error, false);
+  auto writer = LibraryWriter::create(path, compression, &error, checksum);
   ASSERT_TRUE(writer) << error;
   ASSERT_TRUE(writer->write_clip("c", make_clip(), &error)) << error;
   ASSERT_TRUE(writer->close(&error)) << error;
@@ -145,6 +145,29 @@ TEST(HostileChunks, AStoredChunkLargerThanTheFileIsRefused) {
   const std::string error = read_error(lib);
   EXPECT_NE(error.find("claims 2147483647 stored bytes, more than the file's"), std::string::npos)
       << error;
+}
+
+// libhdf5 1.10's Fletcher-32 filter subtracts its 4 bytes from a chunk's stored size unchecked:
+// a chunk stored in 2 bytes made it checksum the whole address space (SEGV, library_image_fuzz).
+TEST(HostileChunks, AChunkShorterThanItsChecksumIsRefusedBeforeHdf5ReadsIt) {
+  test::TempDir dir("hostile-chunks");
+  const fs::path lib = dir / "lib.h5";
+  for (Compression compression : {Compression::none, Compression::deflate}) {
+    write_library(lib, compression, true);
+    {
+      const hid_t file = H5Fopen(lib.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+      const hid_t dataset = H5Dopen2(file, "/clips/c/rotations", H5P_DEFAULT);
+      const hsize_t origin[3] = {0, 0, 0};
+      const std::uint8_t two[2] = {1, 2};
+      EXPECT_GE(H5Dwrite_chunk(dataset, H5P_DEFAULT, 0, origin, 2, two), 0);
+      H5Dclose(dataset);
+      H5Fclose(file);
+    }
+    const std::string error = read_error(lib);
+    EXPECT_NE(error.find("stores 2 bytes, fewer than its Fletcher-32 checksum's 4"),
+              std::string::npos)
+        << error;
+  }
 }
 
 // The LZ4 plugin allocates the size a chunk's header states and decodes with
