@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "kernels/forward_kinematics.hpp"
@@ -365,6 +366,82 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
                 largest, moved);
     EXPECT_LE(largest, 1e-6) << "case " << c;
     EXPECT_GT(moved, 1e-3) << "case " << c << ": the lock did nothing, the test would be vacuous";
+  }
+}
+
+// One scratch reused across clips of different sizes (FootLockScratch: what a run leaves in it
+// means nothing to the next) gives the bits a fresh one gives, on both paths; and once it has
+// held the largest clip, smaller and equal ones reuse its planes (nothing allocated per clip).
+TEST(FootLock, AReusedScratchGivesTheResultsOfAFreshOne) {
+  struct Case {
+    int frames;
+    double frame_time, speed;
+    std::vector<std::vector<ContactInterval>> contacts, toes;
+  };
+  const std::vector<Case> clips = {
+      {240,
+       1.0 / 120,
+       Walk::kPlantedSpeed,
+       {{{0, 12}, {100, 140}}, {{50, 80}, {170, 200}}},
+       {{{12, 20}}, {{80, 86}}}},
+      {60, 1.0 / 30, Walk::kPlantedSpeed, {{{2, 10}, {25, 35}}, {{14, 20}}}, {}},
+      {300, 1.0 / 120, 4.0, {{{100, 140}}, {{200, 260}}}, {}},  // the root lowered
+      {45, 1.0 / 30, 1.6 * Walk::kPlantedSpeed, {{{24, 38}}, {}}, {}},
+      {240, 1.0 / 120, Walk::kPlantedSpeed, {{{30, 90}}, {{120, 180}}}, {}},
+  };
+  const std::vector<FootChain> legs = walk_legs();
+  for (Implementation implementation : {Implementation::fast, Implementation::reference}) {
+    FootLockScratch reused;
+    const double* steady_planes = nullptr;
+    for (int pass = 0; pass < 2; ++pass)
+      for (std::size_t c = 0; c < clips.size(); ++c) {
+        const Case& k = clips[c];
+        Walk walks[2] = {Walk(k.frames, k.frame_time, k.speed),
+                         Walk(k.frames, k.frame_time, k.speed)};
+        FootLockStats stats[2];
+        FootLockScratch fresh;
+        for (int i = 0; i < 2; ++i) {
+          FootLockJob job;
+          job.parents = walks[i].parents;
+          job.offsets = walks[i].offsets;
+          job.translated_joints = walks[i].translated;
+          job.frame_time = k.frame_time;
+          job.rotations = {walks[i].rotations.data(), k.frames, Walk::kJoints};
+          job.translations = {walks[i].translations.data(), k.frames, Walk::kJoints};
+          job.legs = legs;
+          job.contacts = k.contacts;
+          job.toe_contacts = k.toes;
+          job.stats = &stats[i];
+          job.scratch = i == 0 ? &fresh : &reused;
+          job.implementation = implementation;
+          const Status s = job.run();
+          ASSERT_TRUE(s.ok()) << s.message();
+        }
+        const std::string what = std::string(to_string(implementation)) + ", pass " +
+                                 std::to_string(pass) + ", clip " + std::to_string(c);
+        EXPECT_TRUE(same_bits(walks[0].rotations.data(), walks[1].rotations.data(),
+                              int(walks[0].rotations.size())))
+            << what;
+        EXPECT_TRUE(same_bits(walks[0].translations.data(), walks[1].translations.data(),
+                              int(walks[0].translations.size())))
+            << what;
+        EXPECT_EQ(stats[0].contacts, stats[1].contacts) << what;
+        EXPECT_EQ(stats[0].locked_frames, stats[1].locked_frames) << what;
+        EXPECT_EQ(stats[0].lowered_frames, stats[1].lowered_frames) << what;
+        EXPECT_EQ(stats[0].max_drop, stats[1].max_drop) << what;
+        const Walk original(k.frames, k.frame_time, k.speed);
+        EXPECT_FALSE(same_bits(walks[1].rotations.data(), original.rotations.data(),
+                               int(original.rotations.size())))
+            << what << ": the lock did nothing, the test would be vacuous";
+        // The second pass: every clip has been seen, so the planes stay where they are.
+        if (pass == 0 && c + 1 == clips.size()) steady_planes = reused.planes.get();
+        if (pass == 1) {
+          EXPECT_EQ(reused.planes.get(), steady_planes) << what << ": reallocated";
+        }
+      }
+    if (implementation == Implementation::fast) {
+      EXPECT_NE(steady_planes, nullptr);
+    }
   }
 }
 
