@@ -243,6 +243,14 @@ double drop_of(const std::vector<std::pair<int, double>>& drops, int root) {
 // scalar. Same formulas as the reference below; the rounding differs. Every buffer is the
 // scratch's (s): run() has put the complete legs, their contact lists and labels, and the
 // touched frames there.
+// The planes hold one chunk of kChunk touched frames at a time, so that they stay in cache and
+// take the same memory for any clip (whole-clip planes, 1.3 KB per frame, were faulted in and
+// streamed from memory: most of the lock's time in the pipeline). Three passes over the chunks,
+// each recomputing the forward kinematics and the leg geometry (every lane takes the same
+// formula, so the values are the same each time): A keeps the anchors, the knee's interior angle
+// and the first bend-plane normal; then the pins; B finds the roots' drops; then the knee
+// limit's band; C solves the IK and lowers the roots (after the IK: C's forward kinematics reads
+// the roots as they came).
 void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockStats& stats) {
   const RotationSpan rotations = job.rotations;
   const std::span<const int> parents = job.parents;
@@ -259,7 +267,11 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     }
   const std::size_t n = frame_of.size();
   if (n == 0) return;  // no contact: nothing touched, nothing counted
-  const std::size_t P = simd::kFootLockPad, stride = (n + P - 1) / P * P;
+  const std::size_t P = simd::kFootLockPad;
+  const std::size_t padded = (n + P - 1) / P * P;  // whole-clip rows
+  constexpr std::size_t kChunk = 256;              // a multiple of kFootLockPad
+  static_assert(kChunk % simd::kFootLockPad == 0);
+  const std::size_t stride = std::min(padded, kChunk);  // chunk planes
   auto translated = [&](int j) {
     return !job.translated_joints.empty() && job.translated_joints[std::size_t(j)] != 0;
   };
@@ -283,11 +295,11 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
         needed.push_back(j);
       }
   }
-  // All planes in one block, the scratch's (grown only for a larger clip), left uninitialized
-  // but for their padding lanes (every kernel and loop below writes lanes [0, n) before they are
-  // read): zeroing it cost as much as the IK.
+  // All chunk planes in one block, the scratch's (grown only for a larger skeleton), zeroed once
+  // when allocated: a lane past a chunk's frames holds an earlier chunk's finite values, computed
+  // and ignored.
   // Per leg: ox, oz, u (3), v (3), len (3: l1, l2, reach), cos_f, theta_f, normal (3), bent,
-  // to_target (3), distance, drop.
+  // to_target (3), distance.
   enum : std::size_t {
     kOx = 0,
     kOz = 1,
@@ -300,58 +312,33 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     kBent = 16,
     kToTarget = 17,
     kDistance = 20,
-    kDrop = 21,
-    kPerLeg = 22
+    kPerLeg = 21
   };
-  constexpr std::size_t kShared = 7 + 3 + 1 + 1 + 1 + 3;
+  constexpr std::size_t kShared = 7 + 3 + 1 + 1 + 3;  // identity, local, cos1, theta1, normal
   const std::size_t total = (11 * needed.size() + kPerLeg * leg_count + kShared) * stride;
   if (s.plane_capacity < total) {
     s.planes.reset();  // the old block first: never both at once
-    s.planes.reset(new double[total]);
+    s.planes.reset(new double[total]());
     s.plane_capacity = total;
   }
-  std::size_t used = 0;
-  auto take = [&](std::size_t count) {
-    double* p = s.planes.get() + used;
-    used += count * stride;
-    for (std::size_t k = 0; k < count; ++k)
-      std::fill(p + k * stride + n, p + (k + 1) * stride, 0.0);
-    return p;
-  };
-  double* const global = take(7 * needed.size());
-  double* const identity = take(7);
+  double* const global = s.planes.get();
+  double* const identity = global + 7 * needed.size() * stride;
+  double* const qs = identity + 7 * stride;  // the local rotations
+  double* const local = qs + 4 * needed.size() * stride;
+  double* const leg_planes = local + 3 * stride;
+  double* const cos1 = leg_planes + kPerLeg * leg_count * stride;
+  double* const theta1 = cos1 + stride;
+  double* const normal = theta1 + stride;
   std::fill(identity, identity + 7 * stride, 0.0);
   std::fill(identity, identity + stride, 1.0);
-  double* const qs = take(4 * needed.size());  // the local rotations
-  double* const local = take(3);
-  double* const leg_planes = take(kPerLeg * leg_count);
   auto leg_plane = [&](std::size_t l, std::size_t k) {
     return leg_planes + (l * kPerLeg + k) * stride;
   };
-
-  // Forward kinematics, one joint at a time over all touched frames.
   auto rot = [&](int j) {
     return j < 0 ? identity : global + std::size_t(slot[std::size_t(j)]) * 7 * stride;
   };
   auto pos = [&](int j) { return rot(j) + 4 * stride; };
   auto local_rotation = [&](int j) { return qs + std::size_t(slot[std::size_t(j)]) * 4 * stride; };
-  simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data(), n, needed.data(),
-                         needed.size(), qs, stride);
-  for (int j : needed) {
-    const bool moved = translated(j);
-    if (moved)
-      for (std::size_t i = 0; i < n; ++i) {
-        const float* p = job.translations.at(frame_of[i], j);
-        for (std::size_t k = 0; k < 3; ++k) local[k * stride + i] = p[k];
-      }
-    const int p = parents[std::size_t(j)];
-    simd::chain_step(rot(p), pos(p), local_rotation(j), moved ? local : nullptr,
-                     job.offsets[std::size_t(j)], rot(j), pos(j), n, stride);
-  }
-  auto point = [&](int j, std::size_t i) {
-    const double* p = pos(j);
-    return Vec3{p[i], p[stride + i], p[2 * stride + i]};
-  };
   auto geometry = [&](std::size_t l) {
     simd::LegGeometry g;
     g.hip = pos(chains[l].hip);
@@ -370,9 +357,78 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     g.distance = leg_plane(l, kDistance);
     return g;
   };
+  // Forward kinematics of the touched frames [begin, begin + m), one joint at a time.
+  auto forward = [&](std::size_t begin, std::size_t m) {
+    simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data() + begin, m,
+                           needed.data(), needed.size(), qs, stride);
+    for (int j : needed) {
+      const bool moved = translated(j);
+      if (moved)
+        for (std::size_t k = 0; k < m; ++k) {
+          const float* p = job.translations.at(frame_of[begin + k], j);
+          for (std::size_t c = 0; c < 3; ++c) local[c * stride + k] = p[c];
+        }
+      const int p = parents[std::size_t(j)];
+      simd::chain_step(rot(p), pos(p), local_rotation(j), moved ? local : nullptr,
+                       job.offsets[std::size_t(j)], rot(j), pos(j), m, stride);
+    }
+  };
+  // The offsets' horizontal part of the chunk (0 before the pins are known), then the geometry.
+  const std::vector<Vec3>& offsets = s.offsets;
+  auto geometry_of = [&](std::size_t l, std::size_t begin, std::size_t m, bool with_offsets) {
+    double* const ox = leg_plane(l, kOx);
+    double* const oz = leg_plane(l, kOz);
+    for (std::size_t k = 0; k < m; ++k) {
+      const Vec3 o = with_offsets ? offsets[l * F + std::size_t(frame_of[begin + k])] : Vec3{};
+      ox[k] = o.x;
+      oz[k] = o.z;
+    }
+    simd::leg_geometry(geometry(l), job.params.max_reach, m, stride);
+  };
 
-  // The offsets D(t) per leg, then per leg and frame, once: bones, lengths, reach, the knee's
-  // angle, the bend plane's normal, the target.
+  // Pass A: the anchors (ankle, toe) and the knee's interior angle theta_f per leg and touched
+  // frame; the first bend-plane normal (carried over straight frames; without one, the hip's x
+  // axis at frame 0).
+  s.anchors.resize(leg_count * 2 * n);  // [leg][ankle, toe][touched frame]
+  s.theta_f.resize(leg_count * n);
+  s.first_normals.assign(leg_count, Vec3{});
+  std::vector<Quat>& hip_at_0 = s.hip_rotations;
+  hip_at_0.assign(leg_count, Quat{});
+  for (std::size_t begin = 0; begin < n; begin += stride) {
+    const std::size_t m = std::min(stride, n - begin);
+    forward(begin, m);
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      const FootChain& leg = chains[l];
+      Vec3* const ankle = s.anchors.data() + l * 2 * n;
+      Vec3* const toe = ankle + n;
+      const double* a = pos(leg.ankle);
+      for (std::size_t k = 0; k < m; ++k)
+        ankle[begin + k] = {a[k], a[stride + k], a[2 * stride + k]};
+      if (leg.toe >= 0 && slot[std::size_t(leg.toe)] >= 0) {
+        const double* p = pos(leg.toe);
+        for (std::size_t k = 0; k < m; ++k)
+          toe[begin + k] = {p[k], p[stride + k], p[2 * stride + k]};
+      }
+      geometry_of(l, begin, m, false);
+      const double* theta_f = leg_plane(l, kThetaF);
+      std::copy(theta_f, theta_f + m, s.theta_f.data() + l * n + begin);
+      Vec3& first = s.first_normals[l];
+      if (norm(first) == 0) {
+        const double *bent = leg_plane(l, kBent), *nrm = leg_plane(l, kNormal);
+        for (std::size_t k = 0; k < m; ++k)
+          if (bent[k] != 0) {
+            first = {nrm[k], nrm[stride + k], nrm[2 * stride + k]};
+            break;
+          }
+      }
+      if (begin == 0 && frame_of[0] == 0) {
+        const double* r = rot(leg.hip);
+        hip_at_0[l] = {r[0], r[stride], r[2 * stride], r[3 * stride]};
+      }
+    }
+  }
+
+  // The offsets D(t) per leg.
   s.offsets.resize(leg_count * F);
   s.active.resize(leg_count * F);
   auto active = [&](std::size_t l, int t) { return s.active[l * F + std::size_t(t)] != 0; };
@@ -380,41 +436,28 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     const std::span<const std::uint8_t> label(s.labels.data() + l * F, F);
     for (std::uint8_t v : label) stats.locked_frames += v != 0;
     const FootChain& leg = chains[l];
+    const Vec3* const anchors = s.anchors.data() + l * 2 * n;
     auto anchor_at = [&](int anchor, int t) {
-      return point(anchor == 1 || leg.toe < 0 ? leg.ankle : leg.toe,
-                   std::size_t(index_of[std::size_t(t)]));
+      const std::size_t i = std::size_t(index_of[std::size_t(t)]);
+      return anchor == 1 || leg.toe < 0 ? anchors[i] : anchors[n + i];
     };
-    const std::span<Vec3> offset(s.offsets.data() + l * F, F);
-    stats.contacts += leg_offsets(frames, anchor_at, label, blend, offset,
-                                  std::span(s.active.data() + l * F, F), s);
-    double* const ox = leg_plane(l, kOx);
-    double* const oz = leg_plane(l, kOz);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vec3 o = offset[std::size_t(frame_of[i])];
-      ox[i] = o.x;
-      oz[i] = o.z;
-    }
-    simd::leg_geometry(geometry(l), job.params.max_reach, n, stride);
+    stats.contacts +=
+        leg_offsets(frames, anchor_at, label, blend, std::span(s.offsets.data() + l * F, F),
+                    std::span(s.active.data() + l * F, F), s);
   }
 
   std::vector<int>& root = s.roots;
   root.resize(leg_count);
   for (std::size_t l = 0; l < leg_count; ++l) root[l] = top_ancestor(parents, chains[l].hip);
   double knee_speed_limit = job.params.max_knee_speed;
-  // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's, from the planes where touched),
-  // 1 where the step is not counted. One more entry, 1, after the last frame: the peak's
-  // neighbours need no bounds check. The peak needs every frame; a given limit only the touched
-  // ones (the IK's turns).
+  // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's; from the rotations as they
+  // came: no IK has run), 1 where the step is not counted. One more entry, 1, after the last
+  // frame: the peak's neighbours need no bounds check. The peak needs every frame; a given limit
+  // only the touched ones (the IK's turns).
   s.knee_cos.resize(leg_count * (F + 1));
   for (std::size_t l = 0; l < leg_count; ++l) {
     const int knee = chains[l].knee;
-    const double* kq = local_rotation(knee);
-    auto quat_at = [&](int t) {
-      const int i = index_of[std::size_t(t)];
-      return i >= 0 ? Quat{kq[i], kq[stride + std::size_t(i)], kq[2 * stride + std::size_t(i)],
-                           kq[3 * stride + std::size_t(i)]}
-                    : load_quat(rotations.at(t, knee));
-    };
+    auto quat_at = [&](int t) { return load_quat(rotations.at(t, knee)); };
     auto counted = [&](int t) {
       return job.counted_steps.empty() || job.counted_steps[std::size_t(t)] != 0;
     };
@@ -448,146 +491,168 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     knee_speed_limit = 2 * std::acos(std::min(1.0, least)) / job.frame_time;
   }
 
-  // The roots' drops, per frame (only where a planted leg cannot reach its target).
+  // Pass B: the roots' drops, per frame (only where a planted leg cannot reach its target), per
+  // leg (padded rows: LegKneeCosine reads whole vectors); the roots are lowered in pass C.
+  s.leg_drops.resize(leg_count * padded);
+  std::fill(s.leg_drops.begin(), s.leg_drops.end(), 0.0);
   std::vector<std::pair<int, double>>& drops = s.drops;
-  for (std::size_t i = 0; i < n; ++i) {
-    const int t = frame_of[i];
-    drops.clear();
-    for (std::size_t l = 0; l < leg_count; ++l) {
-      if (!active(l, t)) continue;
-      const double* len = leg_plane(l, kLen);
-      const double* to_target = leg_plane(l, kToTarget);
-      const double r = len[2 * stride + i];
-      if (leg_plane(l, kDistance)[i] <= r * r || !translated(root[l])) continue;  // squared
-      add_drop(drops, root[l],
-               root_drop(std::hypot(to_target[i], to_target[2 * stride + i]),
-                         -to_target[stride + i], r));  // the hip's height above the target
+  for (std::size_t begin = 0; begin < n; begin += stride) {
+    const std::size_t m = std::min(stride, n - begin);
+    forward(begin, m);
+    for (std::size_t l = 0; l < leg_count; ++l) geometry_of(l, begin, m, true);
+    for (std::size_t k = 0; k < m; ++k) {
+      const int t = frame_of[begin + k];
+      drops.clear();
+      for (std::size_t l = 0; l < leg_count; ++l) {
+        if (!active(l, t)) continue;
+        const double* len = leg_plane(l, kLen);
+        const double* to_target = leg_plane(l, kToTarget);
+        const double r = len[2 * stride + k];
+        if (leg_plane(l, kDistance)[k] <= r * r || !translated(root[l])) continue;  // squared
+        add_drop(drops, root[l],
+                 root_drop(std::hypot(to_target[k], to_target[2 * stride + k]),
+                           -to_target[stride + k], r));  // the hip's height above the target
+      }
+      for (std::size_t l = 0; l < leg_count; ++l)
+        s.leg_drops[l * padded + begin + k] = drop_of(drops, root[l]);
     }
-    lower_roots(job.translations, t, drops, stats);
-    for (std::size_t l = 0; l < leg_count; ++l) leg_plane(l, kDrop)[i] = drop_of(drops, root[l]);
   }
 
-  // The knee's speed limit and the IK, per leg (reference: the same steps, frame by frame).
+  // The knee's speed limit per leg (reference: the same steps, frame by frame): which frames
+  // the IK touches, the filter's knee turn per step, the band that returns to 0.
   const double step_limit = knee_speed_limit > 0 ? knee_speed_limit * job.frame_time : 0.0;
   // low and high are written on every IK frame before they are read (on the solved ones).
-  std::vector<double>&low = s.low, &high = s.high, &gain = s.gain, &room = s.room;
-  low.resize(F);
-  high.resize(F);
-  gain.resize(F);
-  room.resize(F);
-  std::vector<std::uint8_t>&ik = s.ik, &solve = s.solve;
-  ik.resize(F);
-  solve.resize(n);  // written for every touched frame, per leg
-  double* const turn = take(1);
-  double* const cos1 = take(1);
-  double* const theta1 = take(1);
-  double* const normal = take(3);
+  s.low.resize(leg_count * F);
+  s.high.resize(leg_count * F);
+  s.gain.resize(leg_count * F);
+  s.room.resize(leg_count * F);
+  s.ik.resize(leg_count * F);
+  s.turn.resize(padded);
+  std::fill(s.turn.begin() + std::ptrdiff_t(n), s.turn.end(), 1.0);
+  double* const turn = s.turn.data();
   for (std::size_t l = 0; l < leg_count; ++l) {
-    const FootChain& leg = chains[l];
-    const simd::LegGeometry g = geometry(l);
-    const double* const drop = leg_plane(l, kDrop);
+    const double* const drop = s.leg_drops.data() + l * padded;
     const double* const knee_cos = s.knee_cos.data() + l * (F + 1);
-    std::fill(ik.begin(), ik.end(), 0);
+    const double* const theta_f = s.theta_f.data() + l * n;
+    std::uint8_t* const ik = s.ik.data() + l * F;
+    double *const low = s.low.data() + l * F, *const high = s.high.data() + l * F,
+                  *const gain = s.gain.data() + l * F, *const room = s.room.data() + l * F;
+    std::fill(ik, ik + F, 0);
     // The knee's turn per step into each touched frame next to this leg's IK (frames ascend:
     // ik[t - 1] is set before frame t is reached).
     auto steps = [&](int t) {
       return t > 0 && (job.counted_steps.empty() || job.counted_steps[std::size_t(t)]) &&
-             (ik[std::size_t(t)] || ik[std::size_t(t - 1)]);
+             (ik[t] || ik[t - 1]);
     };
     for (std::size_t i = 0; i < n; ++i) {
       const int t = frame_of[i];
-      ik[std::size_t(t)] = active(l, t) || drop[i] > 0;
+      ik[t] = active(l, t) || drop[i] > 0;
       turn[i] = steps(t) ? std::min(1.0, knee_cos[t]) : 1.0;
     }
     simd::acos_planes(turn, turn, n);
-    std::fill(gain.begin(), gain.end(), 0.0);
-    std::fill(room.begin(), room.end(), step_limit);
+    std::fill(gain, gain + F, 0.0);
+    std::fill(room, room + F, step_limit);
     room[0] = INFINITY;
     if (!job.counted_steps.empty())
       for (int t = 1; t < frames; ++t)
-        if (!job.counted_steps[std::size_t(t)]) room[std::size_t(t)] = INFINITY;
-    // The normal carried over straight frames (first: the first frame's that has one).
-    Vec3 nrm{};
-    for (std::size_t i = 0; i < n; ++i)
-      if (g.bent[i] != 0) {
-        nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
-        break;
-      }
-    if (norm(nrm) == 0) {
-      Quat h{};
-      if (frame_of[0] == 0) {
-        const double* r = rot(leg.hip);
-        h = {r[0], r[stride], r[2 * stride], r[3 * stride]};
-      }
-      nrm = rotate(h, Vec3{1, 0, 0});
-    }
+        if (!job.counted_steps[std::size_t(t)]) room[t] = INFINITY;
     for (std::size_t i = 0; i < n; ++i) {
       const int t = frame_of[i];
       if (steps(t)) {
         const double turn_angle = 2 * turn[i];
-        const double gi = g.theta_f[i] - g.theta_f[std::size_t(index_of[std::size_t(t - 1)])];
+        const double gi = theta_f[i] - theta_f[std::size_t(index_of[std::size_t(t - 1)])];
         const double twist2 = std::max(0.0, turn_angle * turn_angle - gi * gi);
-        gain[std::size_t(t)] = gi;
-        room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
+        gain[t] = gi;
+        room[t] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
       }
-      if (g.bent[i] != 0) nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
-      normal[i] = nrm.x;
-      normal[stride + i] = nrm.y;
-      normal[2 * stride + i] = nrm.z;
-      solve[i] = ik[std::size_t(t)] && g.len[i] > 0 && g.len[stride + i] > 0;
     }
     double lo = -INFINITY, hi = INFINITY;
     for (int t = frames - 1; t >= 0; --t) {
-      if (!ik[std::size_t(t)]) {
+      if (!ik[t]) {
         lo = hi = 0;
         continue;
       }
       if (t + 1 < frames) {
-        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
-        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
+        lo += gain[t + 1] - room[t + 1];
+        hi += gain[t + 1] + room[t + 1];
       }
-      low[std::size_t(t)] = lo;
-      high[std::size_t(t)] = hi;
+      low[t] = lo;
+      high[t] = hi;
     }
+    Vec3& first = s.first_normals[l];
+    if (norm(first) == 0) first = rotate(hip_at_0[l], Vec3{1, 0, 0});
+  }
 
-    // The wanted cosine; the limit.
-    simd::leg_knee_cosine(g.to_target, drop, g.len, cos1, theta1, solve.data(), n, stride);
-    if (step_limit > 0) {
-      double delta = 0;  // Delta(t - 1)
-      for (std::size_t i = 0; i < n; ++i) {
-        const int t = frame_of[i];
-        if (i > 0 && frame_of[i - 1] != t - 1) delta = 0;  // an untouched frame between
-        if (!solve[i]) {
-          delta = 0;
-          continue;
-        }
-        const double wanted = theta1[i] - g.theta_f[i];
-        const double gi = gain[std::size_t(t)], qi = room[std::size_t(t)];
-        const double a = std::max(low[std::size_t(t)], delta - gi - qi),
-                     b = std::min(high[std::size_t(t)], delta - gi + qi);
-        const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
-        if (limited != wanted) cos1[i] = std::cos(g.theta_f[i] + limited);
-        delta = limited;
+  // Pass C: the wanted cosine, the limit, the IK; then the chunk's roots lowered.
+  std::vector<Vec3>& carried = s.first_normals;  // the normal carried over straight frames
+  s.deltas.assign(leg_count, 0.0);               // Delta(t - 1) per leg
+  s.solve.resize(stride);
+  std::uint8_t* const solve = s.solve.data();
+  for (std::size_t begin = 0; begin < n; begin += stride) {
+    const std::size_t m = std::min(stride, n - begin);
+    forward(begin, m);
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      const FootChain& leg = chains[l];
+      geometry_of(l, begin, m, true);
+      const simd::LegGeometry g = geometry(l);
+      const std::uint8_t* const ik = s.ik.data() + l * F;
+      const double *const low = s.low.data() + l * F, *const high = s.high.data() + l * F,
+                          *const gain = s.gain.data() + l * F, *const room = s.room.data() + l * F;
+      Vec3& nrm = carried[l];
+      for (std::size_t k = 0; k < m; ++k) {
+        const int t = frame_of[begin + k];
+        if (g.bent[k] != 0) nrm = {g.normal[k], g.normal[stride + k], g.normal[2 * stride + k]};
+        normal[k] = nrm.x;
+        normal[stride + k] = nrm.y;
+        normal[2 * stride + k] = nrm.z;
+        solve[k] = ik[t] && g.len[k] > 0 && g.len[stride + k] > 0;
       }
+      simd::leg_knee_cosine(g.to_target, s.leg_drops.data() + l * padded + begin, g.len, cos1,
+                            theta1, solve, m, stride);
+      if (step_limit > 0) {
+        double& delta = s.deltas[l];  // Delta(t - 1)
+        for (std::size_t k = 0; k < m; ++k) {
+          const std::size_t i = begin + k;
+          const int t = frame_of[i];
+          if (i > 0 && frame_of[i - 1] != t - 1) delta = 0;  // an untouched frame between
+          if (!solve[k]) {
+            delta = 0;
+            continue;
+          }
+          const double wanted = theta1[k] - g.theta_f[k];
+          const double gi = gain[t], qi = room[t];
+          const double a = std::max(low[t], delta - gi - qi),
+                       b = std::min(high[t], delta - gi + qi);
+          const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
+          if (limited != wanted) cos1[k] = std::cos(g.theta_f[k] + limited);
+          delta = limited;
+        }
+      }
+      simd::LegIkPlanes io{
+          g.u,
+          g.v,
+          normal,
+          g.cos_f,
+          cos1,
+          g.to_target,
+          rot(parents[std::size_t(leg.hip)]),
+          rot(leg.hip),
+          rot(leg.knee),
+          rot(leg.ankle),
+          {local_rotation(leg.hip), local_rotation(leg.knee), local_rotation(leg.ankle)},
+          solve,
+          rotations.data,
+          std::size_t(joints) * 4,
+          frame_of.data() + begin,
+          {leg.hip, leg.knee, leg.ankle}};
+      simd::leg_ik(io, m, stride);
     }
-    simd::LegIkPlanes io{
-        g.u,
-        g.v,
-        normal,
-        g.cos_f,
-        cos1,
-        g.to_target,
-        rot(parents[std::size_t(leg.hip)]),
-        rot(leg.hip),
-        rot(leg.knee),
-        rot(leg.ankle),
-        {local_rotation(leg.hip), local_rotation(leg.knee), local_rotation(leg.ankle)},
-        solve.data(),
-        rotations.data,
-        std::size_t(joints) * 4,
-        frame_of.data(),
-        {leg.hip, leg.knee, leg.ankle}};
-    simd::leg_ik(io, n, stride);
+    for (std::size_t k = 0; k < m; ++k) {
+      drops.clear();
+      for (std::size_t l = 0; l < leg_count; ++l)
+        add_drop(drops, root[l], s.leg_drops[l * padded + begin + k]);
+      lower_roots(job.translations, frame_of[begin + k], drops, stats);
+    }
   }
 }
 

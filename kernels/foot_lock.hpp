@@ -94,7 +94,7 @@ struct FootLockStats {
 // pipeline). What it holds between runs means nothing to the next (results do not depend on it);
 // it serves one run at a time (one per thread). The scalar reference allocates its own.
 struct FootLockScratch {
-  std::unique_ptr<double[]> planes;  // the fast path's planes, one block, never zero-filled
+  std::unique_ptr<double[]> planes;  // the fast path's planes of one chunk of frames, one block
   std::size_t plane_capacity = 0;    // doubles in `planes`
   std::vector<FootChain> chains;     // the complete legs, and their contact lists
   std::vector<const std::vector<ContactInterval>*> ankle_lists, toe_lists;
@@ -103,10 +103,19 @@ struct FootLockScratch {
   std::vector<std::uint8_t> labels, active;
   std::vector<Vec3> offsets;
   std::vector<double> knee_cos;
-  // Per frame, or per touched frame (plane index).
+  // Per frame, or per touched frame (plane index); ik: [leg][frame] in the fast path.
   std::vector<std::uint8_t> touched, ik, solve, marks;
   std::vector<int> frame_of, index_of, slot, needed, roots;
-  std::vector<double> low, high, gain, room;
+  std::vector<double> low, high, gain, room;  // [leg][frame] in the fast path
+  // Per leg and touched frame (fast path): the anchors ([leg][ankle, toe][i]), the knee's
+  // interior angle, the roots' drops (rows padded), the knee's turn (one leg at a time).
+  std::vector<Vec3> anchors;
+  std::vector<double> theta_f, leg_drops, turn;
+  // Per leg: the bend-plane normal carried over straight frames, the hip's rotation at frame 0,
+  // the knee limit's Delta(t - 1).
+  std::vector<Vec3> first_normals;
+  std::vector<Quat> hip_rotations;
+  std::vector<double> deltas;
   // One contact's anchor positions and their x, z (the pins' medians).
   std::vector<Vec3> points;
   std::vector<double> xs, zs;

@@ -301,12 +301,14 @@ TEST(FootLock, TheKneeTurnsNoFasterThanTheInputsPeakAtAContactsEnds) {
 // two round differently, fused multiply-adds and Highway's acos), and the same statistics. Cases:
 // both legs locked with toe contacts, a gap between touched frames, an unreachable pin (the root
 // lowered), without the knee's speed limit, with it binding, a step that is not motion
-// (counted_steps) inside a contact, at 30 and 120 fps.
+// (counted_steps) inside a contact, at 30 and 120 fps; and clips long enough that the fast path
+// takes their touched frames in several chunks.
 TEST(FootLock, TheFastPathMatchesTheReference) {
   struct Case {
     double frame_time, speed, knee_speed;
     std::vector<std::vector<ContactInterval>> contacts, toes;
     int uncounted_step = -1;  // a frame t whose step t-1 -> t is not motion
+    double seconds = 2;
   };
   const std::vector<Case> cases = {
       {1.0 / 120,
@@ -319,10 +321,26 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}},
       {1.0 / 30, 1.6 * Walk::kPlantedSpeed, 0, {{{24, 38}}, {}}, {}},
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}, 120},
+      // Over 256 touched frames: the fast path's planes hold them in several chunks.
+      {1.0 / 120,
+       Walk::kPlantedSpeed,
+       0,
+       {{{0, 12}, {100, 140}, {250, 420}, {600, 700}}, {{50, 80}, {170, 200}, {450, 560}}},
+       {{{12, 20}}, {{80, 86}}},
+       -1,
+       6},
+      {1.0 / 120,
+       1.6 * Walk::kPlantedSpeed,
+       0,
+       {{{96, 150}, {240, 330}}, {{30, 60}, {500, 700}}},
+       {},
+       300,
+       6},
+      {1.0 / 120, 4.0, -1, {{{150, 300}}, {{330, 430}}}, {}, -1, 4},
   };
   for (std::size_t c = 0; c < cases.size(); ++c) {
     const Case& k = cases[c];
-    const int frames = int(std::lround(2.0 / k.frame_time));
+    const int frames = int(std::lround(k.seconds / k.frame_time));
     Walk walks[2] = {Walk(frames, k.frame_time, k.speed), Walk(frames, k.frame_time, k.speed)};
     FootLockStats stats[2];
     const std::vector<FootChain> legs = walk_legs();
@@ -388,6 +406,11 @@ TEST(FootLock, AReusedScratchGivesTheResultsOfAFreshOne) {
       {300, 1.0 / 120, 4.0, {{{100, 140}}, {{200, 260}}}, {}},  // the root lowered
       {45, 1.0 / 30, 1.6 * Walk::kPlantedSpeed, {{{24, 38}}, {}}, {}},
       {240, 1.0 / 120, Walk::kPlantedSpeed, {{{30, 90}}, {{120, 180}}}, {}},
+      {720,  // several chunks of planes
+       1.0 / 120,
+       Walk::kPlantedSpeed,
+       {{{0, 12}, {100, 140}, {250, 420}, {600, 700}}, {{50, 80}, {170, 200}, {450, 560}}},
+       {{{12, 20}}, {{80, 86}}}},
   };
   const std::vector<FootChain> legs = walk_legs();
   for (Implementation implementation : {Implementation::fast, Implementation::reference}) {
