@@ -358,7 +358,12 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     return g;
   };
   // Forward kinematics of the touched frames [begin, begin + m), one joint at a time.
+  // The chunk whose forward kinematics the planes hold, and whose geometry with the offsets
+  // (pass B ends on chunk 0, where pass C starts: one chunk's worth less of each per clip).
+  std::size_t held = n, held_geometry = n;
   auto forward = [&](std::size_t begin, std::size_t m) {
+    if (begin == held) return;
+    held = begin;
     simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data() + begin, m,
                            needed.data(), needed.size(), qs, stride);
     for (int j : needed) {
@@ -496,10 +501,12 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
   s.leg_drops.resize(leg_count * padded);
   std::fill(s.leg_drops.begin(), s.leg_drops.end(), 0.0);
   std::vector<std::pair<int, double>>& drops = s.drops;
-  for (std::size_t begin = 0; begin < n; begin += stride) {
-    const std::size_t m = std::min(stride, n - begin);
+  // Last chunk first: the first is then the one held for pass C (frames are independent here).
+  for (std::size_t chunk = (n - 1) / stride + 1; chunk-- > 0;) {
+    const std::size_t begin = chunk * stride, m = std::min(stride, n - begin);
     forward(begin, m);
     for (std::size_t l = 0; l < leg_count; ++l) geometry_of(l, begin, m, true);
+    held_geometry = begin;
     for (std::size_t k = 0; k < m; ++k) {
       const int t = frame_of[begin + k];
       drops.clear();
@@ -593,7 +600,7 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     forward(begin, m);
     for (std::size_t l = 0; l < leg_count; ++l) {
       const FootChain& leg = chains[l];
-      geometry_of(l, begin, m, true);
+      if (begin != held_geometry) geometry_of(l, begin, m, true);
       const simd::LegGeometry g = geometry(l);
       const std::uint8_t* const ik = s.ik.data() + l * F;
       const double *const low = s.low.data() + l * F, *const high = s.high.data() + l * F,
@@ -647,6 +654,7 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
           {leg.hip, leg.knee, leg.ankle}};
       simd::leg_ik(io, m, stride);
     }
+    held_geometry = n;  // LegKneeCosine has raised the targets by the drops
     for (std::size_t k = 0; k < m; ++k) {
       drops.clear();
       for (std::size_t l = 0; l < leg_count; ++l)
