@@ -321,7 +321,7 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}},
       {1.0 / 30, 1.6 * Walk::kPlantedSpeed, 0, {{{24, 38}}, {}}, {}},
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}, 120},
-      // Over 256 touched frames: the fast path's planes hold them in several chunks.
+      // Over 512 touched frames: the fast path's planes hold them in several chunks.
       {1.0 / 120,
        Walk::kPlantedSpeed,
        0,
@@ -332,11 +332,11 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
       {1.0 / 120,
        1.6 * Walk::kPlantedSpeed,
        0,
-       {{{96, 150}, {240, 330}}, {{30, 60}, {500, 700}}},
+       {{{96, 150}, {240, 330}, {700, 900}}, {{30, 60}, {500, 700}}},
        {},
        300,
-       6},
-      {1.0 / 120, 4.0, -1, {{{150, 300}}, {{330, 430}}}, {}, -1, 4},
+       8},
+      {1.0 / 120, 4.0, -1, {{{150, 300}, {450, 700}}, {{330, 430}}}, {}, -1, 6},
   };
   for (std::size_t c = 0; c < cases.size(); ++c) {
     const Case& k = cases[c];
