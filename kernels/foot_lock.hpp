@@ -88,11 +88,11 @@ struct FootLockStats {
 };
 
 // The working memory of FootLockJob::run (ozz-animation's scratch buffer): the fast path's planes
-// of the touched frames and every per-frame and per-leg vector. Owned by the caller and reused
-// across runs (clips): once it has grown to the largest clip, a run allocates nothing and touches
-// no fresh page (README "Feet", cost: fresh planes were half of the lock's time in the
+// of one chunk of touched frames and every per-frame and per-leg vector. Owned by the caller and
+// reused across runs (clips): once it has grown to the longest clip, a run allocates nothing and
+// touches no fresh page (README "Feet", cost: fresh memory was most of the lock's time in the
 // pipeline). What it holds between runs means nothing to the next (results do not depend on it);
-// it serves one run at a time (one per thread). The scalar reference allocates its own.
+// it serves one run at a time (one per thread). The scalar reference allocates its own planes.
 struct FootLockScratch {
   std::unique_ptr<double[]> planes;  // the fast path's planes of one chunk of frames, one block
   std::size_t plane_capacity = 0;    // doubles in `planes`
