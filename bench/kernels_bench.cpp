@@ -158,6 +158,9 @@ void BM_FootLock(benchmark::State& state) {
   job.legs = legs;
   job.contacts = contacts;
   job.implementation = implementation_of(state);
+  // scratch:1, as the engine runs it: one FootLockScratch kept across runs (clips).
+  FootLockScratch scratch;
+  if (state.range(1) != 0) job.scratch = &scratch;
   std::vector<int> written;
   for (const FootChain& leg : legs) written.insert(written.end(), {leg.hip, leg.knee, leg.ankle});
   std::copy(f.in.begin(), f.in.end(), f.out.begin());
@@ -173,7 +176,12 @@ void BM_FootLock(benchmark::State& state) {
   }
   f.count(state);
 }
-BENCHMARK(BM_FootLock)->ArgNames({"fast"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FootLock)
+    ->ArgNames({"fast", "scratch"})
+    ->Args({0, 0})
+    ->Args({1, 0})
+    ->Args({1, 1})
+    ->Unit(benchmark::kMillisecond);
 
 void BM_Gaussian(benchmark::State& state) {
   Fixture f(int(state.range(2)), int(state.range(1)));

@@ -70,15 +70,11 @@ struct LegFrame {
   Quat parent_rotation, hip_rotation, knee_rotation, ankle_rotation;  // global
 };
 
-// A run of frames with the same anchor (1: ankle, 2: toe).
-struct Segment {
-  int begin, end, anchor;
-};
-
 // label[t]: 1 where the ankle is in contact, else 2 where the toe is, else 0.
-std::vector<std::uint8_t> contact_labels(const std::vector<ContactInterval>* ankle,
-                                         const std::vector<ContactInterval>* toe, int frames) {
-  std::vector<std::uint8_t> label(std::size_t(frames), 0);
+void contact_labels(const std::vector<ContactInterval>* ankle,
+                    const std::vector<ContactInterval>* toe, std::span<std::uint8_t> label) {
+  const int frames = int(label.size());
+  std::fill(label.begin(), label.end(), std::uint8_t(0));
   auto mark = [&](const std::vector<ContactInterval>* list, std::uint8_t value) {
     if (list == nullptr) return;
     for (const ContactInterval& c : *list)
@@ -87,18 +83,20 @@ std::vector<std::uint8_t> contact_labels(const std::vector<ContactInterval>* ank
   };
   mark(ankle, 1);
   mark(toe, 2);
-  return label;
 }
 
-// D(t) of the header for one leg; active[t] = 1 where the leg is locked or blending.
-// Returns the number of contacts (clusters of adjacent segments).
-// anchor_at(anchor, t): the anchor's position at frame t (count frames).
+// D(t) of the header for one leg; active[t] = 1 where the leg is locked or blending (both
+// span `count` frames). Returns the number of contacts (clusters of adjacent segments).
+// anchor_at(anchor, t): the anchor's position at frame t (count frames). The segments, clusters
+// and the medians' buffers are the scratch's.
 template <class Anchor>
 int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label, int blend,
-                std::vector<Vec3>& offset, std::vector<std::uint8_t>& active) {
-  offset.assign(std::size_t(count), Vec3{});
-  active.assign(std::size_t(count), 0);
-  std::vector<Segment> segments;
+                std::span<Vec3> offset, std::span<std::uint8_t> active, FootLockScratch& scratch) {
+  std::fill(offset.begin(), offset.end(), Vec3{});
+  std::fill(active.begin(), active.end(), std::uint8_t(0));
+  using Segment = FootLockScratch::Segment;
+  std::vector<Segment>& segments = scratch.segments;
+  segments.clear();
   for (int t = 0; t < count;) {
     if (label[std::size_t(t)] == 0) {
       ++t;
@@ -110,10 +108,8 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
     t = e;
   }
   // Clusters: maximal runs of segments with no frame between them.
-  struct Cluster {
-    int first, last;  // segment indices, inclusive
-  };
-  std::vector<Cluster> clusters;
+  std::vector<FootLockScratch::Cluster>& clusters = scratch.clusters;
+  clusters.clear();
   for (int s = 0; s < int(segments.size()); ++s) {
     if (!clusters.empty() &&
         segments[std::size_t(clusters.back().last)].end == segments[std::size_t(s)].begin)
@@ -121,9 +117,9 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
     else
       clusters.push_back({s, s});
   }
-  std::vector<double> xs, zs;
-  std::vector<Vec3> points;
-  for (const Cluster& c : clusters) {
+  std::vector<double>&xs = scratch.xs, &zs = scratch.zs;
+  std::vector<Vec3>& points = scratch.points;
+  for (const FootLockScratch::Cluster& c : clusters) {
     // The primary segment: the longest ankle segment, else the longest.
     int primary = c.first;
     for (int s = c.first; s <= c.last; ++s) {
@@ -201,37 +197,97 @@ int top_ancestor(std::span<const int> parents, int joint) {
   return joint;
 }
 
+// The roots' drops (header "Reach"), shared by both paths, each with its own geometry.
+// The drop that lets a hip `height` above its target and `horizontal` from it reach it with
+// reach r: a_y' = T_y + sqrt(r^2 - h^2), all of the height when h >= r; never negative.
+double root_drop(double horizontal, double height, double reach) {
+  const double drop =
+      horizontal < reach ? height - std::sqrt(reach * reach - horizontal * horizontal) : height;
+  return std::max(drop, 0.0);
+}
+
+// A root is lowered by the largest drop its legs ask at a frame (drops: (root, drop)).
+void add_drop(std::vector<std::pair<int, double>>& drops, int root, double drop) {
+  auto it =
+      std::find_if(drops.begin(), drops.end(), [&](const auto& d) { return d.first == root; });
+  if (it == drops.end())
+    drops.emplace_back(root, drop);
+  else
+    it->second = std::max(it->second, drop);
+}
+
+// Lowers the roots of `drops` at frame t, and counts the frame when one was.
+void lower_roots(TranslationSpan translations, int t,
+                 const std::vector<std::pair<int, double>>& drops, FootLockStats& stats) {
+  bool lowered = false;
+  for (const auto& [r, drop] : drops) {
+    if (drop <= 0) continue;
+    float* p = translations.at(t, r);
+    p[1] = float(double(p[1]) - drop);
+    lowered = true;
+    stats.max_drop = std::max(stats.max_drop, drop);
+  }
+  stats.lowered_frames += lowered;
+}
+
+// What a leg of `root` is lowered by at the frame of `drops` (0: its root is not).
+double drop_of(const std::vector<std::pair<int, double>>& drops, int root) {
+  for (const auto& [r, d] : drops)
+    if (r == root) return std::max(d, 0.0);
+  return 0.0;
+}
+
 // run()'s steps with the touched frames as planes (kernels/simd/foot_lock_simd.hpp): forward
 // kinematics, the legs' geometry, the knee's cosines and the IK run in vector lanes over frames;
 // the per-contact pins, the roots' drops and the knee's speed limit (sequential over frames) stay
-// scalar. Same formulas as the reference below; the rounding differs.
-void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
-               const std::vector<const std::vector<ContactInterval>*>& toe_lists,
-               const std::vector<std::vector<std::uint8_t>>& labels,
-               const std::vector<std::uint8_t>& touched, int blend, FootLockStats& stats) {
+// scalar. Same formulas as the reference below; the rounding differs. Every buffer is the
+// scratch's (s): run() has put the complete legs, their contact lists and labels, and the
+// touched frames there.
+// The planes hold one chunk of kChunk touched frames at a time, so that they stay in cache and
+// take the same memory for any clip (whole-clip planes, 1.3 KB per frame, were faulted in and
+// streamed from memory: most of the lock's time in the pipeline). Three passes over the chunks,
+// each computing the forward kinematics and the leg geometry again (every lane takes the same
+// formula, so the values are the same each time) but where the chunk is still held: A keeps
+// the anchors, the knee's interior angle and the first bend-plane normal; then the pins; B finds
+// the roots' drops; then the knee limit's band; C solves the IK and lowers the roots (after the
+// IK: C's forward kinematics reads the roots as they came).
+void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockStats& stats) {
   const RotationSpan rotations = job.rotations;
   const std::span<const int> parents = job.parents;
+  const std::vector<FootChain>& chains = s.chains;
   const int frames = rotations.frames, joints = int(parents.size());
-  const std::size_t leg_count = chains.size();
-  std::vector<int> frame_of, index_of(std::size_t(frames), -1);  // plane index <-> frame
+  const std::size_t leg_count = chains.size(), F = std::size_t(frames);
+  std::vector<int>&frame_of = s.frame_of, &index_of = s.index_of;  // plane index <-> frame
+  frame_of.clear();
+  index_of.assign(F, -1);
   for (int t = 0; t < frames; ++t)
-    if (touched[std::size_t(t)]) {
+    if (s.touched[std::size_t(t)]) {
       index_of[std::size_t(t)] = int(frame_of.size());
       frame_of.push_back(t);
     }
   const std::size_t n = frame_of.size();
   if (n == 0) return;  // no contact: nothing touched, nothing counted
-  const std::size_t P = simd::kFootLockPad, stride = (n + P - 1) / P * P;
+  const std::size_t P = simd::kFootLockPad;
+  const std::size_t padded = (n + P - 1) / P * P;  // whole-clip rows
+  constexpr std::size_t kChunk = 512;              // a multiple of kFootLockPad
+  static_assert(kChunk % simd::kFootLockPad == 0);
+  // Frames per chunk, and the planes' stride: one pad more than a chunk where the chunk is a
+  // power of two, so that the planes do not all start at the same offset modulo 4 KB (cache
+  // set conflicts: measured, 512 frames at a 4 KB stride ran the microbench 3x slower).
+  const std::size_t chunk = std::min(padded, kChunk), stride = chunk == kChunk ? chunk + P : chunk;
   auto translated = [&](int j) {
     return !job.translated_joints.empty() && job.translated_joints[std::size_t(j)] != 0;
   };
 
-  std::vector<int> slot(std::size_t(joints), -1), needed;  // the legs and their ancestors
+  std::vector<int>&slot = s.slot, &needed = s.needed;  // the legs and their ancestors
+  slot.assign(std::size_t(joints), -1);
+  needed.clear();
   {
-    std::vector<std::uint8_t> mark(std::size_t(joints), 0);
+    std::vector<std::uint8_t>& mark = s.marks;
+    mark.assign(std::size_t(joints), 0);
     for (std::size_t l = 0; l < leg_count; ++l) {
       // The toe only where it anchors a contact (the engine gives none).
-      const bool toe = chains[l].toe >= 0 && toe_lists[l] != nullptr && !toe_lists[l]->empty();
+      const bool toe = chains[l].toe >= 0 && s.toe_lists[l] != nullptr && !s.toe_lists[l]->empty();
       for (int j = toe ? chains[l].toe : chains[l].ankle; j >= 0 && !mark[std::size_t(j)];
            j = parents[std::size_t(j)])
         mark[std::size_t(j)] = 1;
@@ -242,121 +298,196 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
         needed.push_back(j);
       }
   }
-  // All planes in one block, left uninitialized but for their padding lanes (every kernel and
-  // loop below writes lanes [0, n) before they are read): zeroing it cost as much as the IK.
-  constexpr std::size_t kPerLeg = 22, kShared = 7 + 3 + 1 + 1 + 1 + 3;
-  const std::size_t total = (11 * needed.size() + kPerLeg * leg_count + kShared) * stride;
-  const std::unique_ptr<double[]> block(new double[total]);
-  std::size_t used = 0;
-  auto take = [&](std::size_t count) {
-    double* p = block.get() + used;
-    used += count * stride;
-    for (std::size_t k = 0; k < count; ++k)
-      std::fill(p + k * stride + n, p + (k + 1) * stride, 0.0);
-    return p;
+  // All chunk planes in one block, the scratch's (grown only for a larger skeleton), zeroed once
+  // when allocated: a lane past a chunk's frames holds an earlier chunk's finite values, computed
+  // and ignored.
+  // Per leg: ox, oz, u (3), v (3), len (3: l1, l2, reach), cos_f, theta_f, normal (3), bent,
+  // to_target (3), distance.
+  enum : std::size_t {
+    kOx = 0,
+    kOz = 1,
+    kU = 2,
+    kV = 5,
+    kLen = 8,
+    kCosF = 11,
+    kThetaF = 12,
+    kNormal = 13,
+    kBent = 16,
+    kToTarget = 17,
+    kDistance = 20,
+    kPerLeg = 21
   };
-  double* const global = take(7 * needed.size());
-  double* const identity = take(7);
+  constexpr std::size_t kShared = 7 + 3 + 1 + 1 + 3;  // identity, local, cos1, theta1, normal
+  const std::size_t total = (11 * needed.size() + kPerLeg * leg_count + kShared) * stride;
+  if (s.plane_capacity < total) {
+    s.planes.reset();  // the old block first: never both at once
+    s.planes.reset(new double[total]());
+    s.plane_capacity = total;
+  }
+  double* const global = s.planes.get();
+  double* const identity = global + 7 * needed.size() * stride;
+  double* const qs = identity + 7 * stride;  // the local rotations
+  double* const local = qs + 4 * needed.size() * stride;
+  double* const leg_planes = local + 3 * stride;
+  double* const cos1 = leg_planes + kPerLeg * leg_count * stride;
+  double* const theta1 = cos1 + stride;
+  double* const normal = theta1 + stride;
   std::fill(identity, identity + 7 * stride, 0.0);
   std::fill(identity, identity + stride, 1.0);
-  double* const qs = take(4 * needed.size());  // the local rotations
-  double* const local = take(3);
-
-  // Forward kinematics, one joint at a time over all touched frames.
+  auto leg_plane = [&](std::size_t l, std::size_t k) {
+    return leg_planes + (l * kPerLeg + k) * stride;
+  };
   auto rot = [&](int j) {
     return j < 0 ? identity : global + std::size_t(slot[std::size_t(j)]) * 7 * stride;
   };
   auto pos = [&](int j) { return rot(j) + 4 * stride; };
   auto local_rotation = [&](int j) { return qs + std::size_t(slot[std::size_t(j)]) * 4 * stride; };
-  simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data(), n, needed.data(),
-                         needed.size(), qs, stride);
-  for (int j : needed) {
-    const bool moved = translated(j);
-    if (moved)
-      for (std::size_t i = 0; i < n; ++i) {
-        const float* p = job.translations.at(frame_of[i], j);
-        for (std::size_t k = 0; k < 3; ++k) local[k * stride + i] = p[k];
-      }
-    const int p = parents[std::size_t(j)];
-    simd::chain_step(rot(p), pos(p), local_rotation(j), moved ? local : nullptr,
-                     job.offsets[std::size_t(j)], rot(j), pos(j), n, stride);
-  }
-  auto point = [&](int j, std::size_t i) {
-    const double* p = pos(j);
-    return Vec3{p[i], p[stride + i], p[2 * stride + i]};
+  auto geometry = [&](std::size_t l) {
+    simd::LegGeometry g;
+    g.hip = pos(chains[l].hip);
+    g.knee = pos(chains[l].knee);
+    g.ankle = pos(chains[l].ankle);
+    g.ox = leg_plane(l, kOx);
+    g.oz = leg_plane(l, kOz);
+    g.u = leg_plane(l, kU);
+    g.v = leg_plane(l, kV);
+    g.len = leg_plane(l, kLen);  // l1, l2, reach
+    g.cos_f = leg_plane(l, kCosF);
+    g.theta_f = leg_plane(l, kThetaF);
+    g.normal = leg_plane(l, kNormal);
+    g.bent = leg_plane(l, kBent);
+    g.to_target = leg_plane(l, kToTarget);
+    g.distance = leg_plane(l, kDistance);
+    return g;
+  };
+  // Forward kinematics of the touched frames [begin, begin + m), one joint at a time.
+  // The chunk whose forward kinematics the planes hold, and whose geometry with the offsets
+  // (pass B ends on chunk 0, where pass C starts: one chunk's worth less of each per clip).
+  std::size_t held = n, held_geometry = n;
+  auto forward = [&](std::size_t begin, std::size_t m) {
+    if (begin == held) return;
+    held = begin;
+    simd::gather_rotations(rotations.data, std::size_t(joints) * 4, frame_of.data() + begin, m,
+                           needed.data(), needed.size(), qs, stride);
+    for (int j : needed) {
+      const bool moved = translated(j);
+      if (moved)
+        for (std::size_t k = 0; k < m; ++k) {
+          const float* p = job.translations.at(frame_of[begin + k], j);
+          for (std::size_t c = 0; c < 3; ++c) local[c * stride + k] = p[c];
+        }
+      const int p = parents[std::size_t(j)];
+      simd::chain_step(rot(p), pos(p), local_rotation(j), moved ? local : nullptr,
+                       job.offsets[std::size_t(j)], rot(j), pos(j), m, stride);
+    }
+  };
+  // The offsets' horizontal part of the chunk (0 before the pins are known), then the geometry.
+  const std::vector<Vec3>& offsets = s.offsets;
+  auto geometry_of = [&](std::size_t l, std::size_t begin, std::size_t m, bool with_offsets) {
+    double* const ox = leg_plane(l, kOx);
+    double* const oz = leg_plane(l, kOz);
+    for (std::size_t k = 0; k < m; ++k) {
+      const Vec3 o = with_offsets ? offsets[l * F + std::size_t(frame_of[begin + k])] : Vec3{};
+      ox[k] = o.x;
+      oz[k] = o.z;
+    }
+    simd::leg_geometry(geometry(l), job.params.max_reach, m, stride);
   };
 
-  // The offsets D(t) per leg, then per leg and frame, once: bones, lengths, reach, the knee's
-  // angle, the bend plane's normal, the target.
-  std::vector<std::vector<Vec3>> offset(leg_count);
-  std::vector<std::vector<std::uint8_t>> active(leg_count);
-  std::vector<simd::LegGeometry> geo(leg_count);
-  std::vector<double*> drop(leg_count);
-  for (std::size_t l = 0; l < leg_count; ++l) {
-    for (std::uint8_t v : labels[l]) stats.locked_frames += v != 0;
-    const FootChain& leg = chains[l];
-    auto anchor_at = [&](int anchor, int t) {
-      return point(anchor == 1 || leg.toe < 0 ? leg.ankle : leg.toe,
-                   std::size_t(index_of[std::size_t(t)]));
-    };
-    stats.contacts += leg_offsets(frames, anchor_at, labels[l], blend, offset[l], active[l]);
-    simd::LegGeometry& g = geo[l];
-    g.hip = pos(leg.hip);
-    g.knee = pos(leg.knee);
-    g.ankle = pos(leg.ankle);
-    double* ox = take(1);
-    double* oz = take(1);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vec3 o = offset[l][std::size_t(frame_of[i])];
-      ox[i] = o.x;
-      oz[i] = o.z;
+  // Pass A: the anchors (ankle, toe) and the knee's interior angle theta_f per leg and touched
+  // frame; the first bend-plane normal (carried over straight frames; without one, the hip's x
+  // axis at frame 0).
+  s.anchors.resize(leg_count * 2 * n);  // [leg][ankle, toe][touched frame]
+  s.theta_f.resize(leg_count * n);
+  s.first_normals.assign(leg_count, Vec3{});
+  std::vector<Quat>& hip_at_0 = s.hip_rotations;
+  hip_at_0.assign(leg_count, Quat{});
+  for (std::size_t begin = 0; begin < n; begin += chunk) {
+    const std::size_t m = std::min(chunk, n - begin);
+    forward(begin, m);
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      const FootChain& leg = chains[l];
+      Vec3* const ankle = s.anchors.data() + l * 2 * n;
+      Vec3* const toe = ankle + n;
+      const double* a = pos(leg.ankle);
+      for (std::size_t k = 0; k < m; ++k)
+        ankle[begin + k] = {a[k], a[stride + k], a[2 * stride + k]};
+      if (leg.toe >= 0 && slot[std::size_t(leg.toe)] >= 0) {
+        const double* p = pos(leg.toe);
+        for (std::size_t k = 0; k < m; ++k)
+          toe[begin + k] = {p[k], p[stride + k], p[2 * stride + k]};
+      }
+      geometry_of(l, begin, m, false);
+      const double* theta_f = leg_plane(l, kThetaF);
+      std::copy(theta_f, theta_f + m, s.theta_f.data() + l * n + begin);
+      Vec3& first = s.first_normals[l];
+      if (norm(first) == 0) {
+        const double *bent = leg_plane(l, kBent), *nrm = leg_plane(l, kNormal);
+        for (std::size_t k = 0; k < m; ++k)
+          if (bent[k] != 0) {
+            first = {nrm[k], nrm[stride + k], nrm[2 * stride + k]};
+            break;
+          }
+      }
+      if (begin == 0 && frame_of[0] == 0) {
+        const double* r = rot(leg.hip);
+        hip_at_0[l] = {r[0], r[stride], r[2 * stride], r[3 * stride]};
+      }
     }
-    g.ox = ox;
-    g.oz = oz;
-    g.u = take(3);
-    g.v = take(3);
-    g.len = take(3);  // l1, l2, reach
-    g.cos_f = take(1);
-    g.theta_f = take(1);
-    g.normal = take(3);
-    g.bent = take(1);
-    g.to_target = take(3);
-    g.distance = take(1);
-    drop[l] = take(1);
-    std::fill(drop[l], drop[l] + n, 0.0);
-    simd::leg_geometry(g, job.params.max_reach, n, stride);
   }
 
-  std::vector<int> root(leg_count);
+  // The offsets D(t) per leg.
+  s.offsets.resize(leg_count * F);
+  s.active.resize(leg_count * F);
+  auto active = [&](std::size_t l, int t) { return s.active[l * F + std::size_t(t)] != 0; };
+  for (std::size_t l = 0; l < leg_count; ++l) {
+    const std::span<const std::uint8_t> label(s.labels.data() + l * F, F);
+    for (std::uint8_t v : label) stats.locked_frames += v != 0;
+    const FootChain& leg = chains[l];
+    const Vec3* const anchors = s.anchors.data() + l * 2 * n;
+    auto anchor_at = [&](int anchor, int t) {
+      const std::size_t i = std::size_t(index_of[std::size_t(t)]);
+      return anchor == 1 || leg.toe < 0 ? anchors[i] : anchors[n + i];
+    };
+    stats.contacts +=
+        leg_offsets(frames, anchor_at, label, blend, std::span(s.offsets.data() + l * F, F),
+                    std::span(s.active.data() + l * F, F), s);
+  }
+
+  std::vector<int>& root = s.roots;
+  root.resize(leg_count);
   for (std::size_t l = 0; l < leg_count; ++l) root[l] = top_ancestor(parents, chains[l].hip);
   double knee_speed_limit = job.params.max_knee_speed;
-  // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's, from the planes where touched).
-  // One more entry, 1, after the last frame: the peak's neighbours need no bounds check.
-  std::vector<std::vector<double>> knee_cos(leg_count,
-                                            std::vector<double>(std::size_t(frames) + 1, 1.0));
+  // c(t) = |q_knee(t-1) . q_knee(t)| per leg (peak_knee_speed's; from the rotations as they
+  // came: no IK has run), 1 where the step is not counted. One more entry, 1, after the last
+  // frame: the peak's neighbours need no bounds check. The peak needs every frame; a given limit
+  // only the touched ones (the IK's turns).
+  s.knee_cos.resize(leg_count * (F + 1));
   for (std::size_t l = 0; l < leg_count; ++l) {
     const int knee = chains[l].knee;
-    const double* kq = local_rotation(knee);
-    auto quat_at = [&](int t) {
-      const int i = index_of[std::size_t(t)];
-      return i >= 0 ? Quat{kq[i], kq[stride + std::size_t(i)], kq[2 * stride + std::size_t(i)],
-                           kq[3 * stride + std::size_t(i)]}
-                    : load_quat(rotations.at(t, knee));
+    auto quat_at = [&](int t) { return load_quat(rotations.at(t, knee)); };
+    auto counted = [&](int t) {
+      return job.counted_steps.empty() || job.counted_steps[std::size_t(t)] != 0;
     };
-    std::vector<double>& c = knee_cos[l];
-    Quat before = quat_at(0);
-    for (int t = 1; t < frames; ++t) {
-      const Quat now = quat_at(t);
-      if (job.counted_steps.empty() || job.counted_steps[std::size_t(t)])
-        c[std::size_t(t)] = std::abs(dot(before, now));
-      before = now;
+    double* const c = s.knee_cos.data() + l * (F + 1);
+    c[0] = c[F] = 1.0;
+    if (knee_speed_limit == 0) {
+      Quat before = quat_at(0);
+      for (int t = 1; t < frames; ++t) {
+        const Quat now = quat_at(t);
+        c[t] = counted(t) ? std::abs(dot(before, now)) : 1.0;
+        before = now;
+      }
+    } else {
+      for (int t : frame_of)
+        if (t > 0) c[t] = counted(t) ? std::abs(dot(quat_at(t - 1), quat_at(t))) : 1.0;
     }
   }
   if (knee_speed_limit == 0) {  // peak_knee_speed on knee_cos (c(0) = c(frames) = 1)
     // Four running minima (min is exact in any order): no chain of dependent minsd.
     double smallest[4] = {1, 1, 1, 1};
-    for (const std::vector<double>& c : knee_cos) {
-      const double* p = c.data();
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      const double* p = s.knee_cos.data() + l * (F + 1);
       auto step = [p](int t) { return std::max(p[t], std::min(p[t - 1], p[t + 1])); };
       int t = 1;
       for (; t + 3 < frames; t += 4)
@@ -368,155 +499,171 @@ void lock_fast(const FootLockJob& job, const std::vector<FootChain>& chains,
     knee_speed_limit = 2 * std::acos(std::min(1.0, least)) / job.frame_time;
   }
 
-  // The roots' drops, per frame (only where a planted leg cannot reach its target).
-  std::vector<std::pair<int, double>> drops;  // (root, drop)
-  for (std::size_t i = 0; i < n; ++i) {
-    const int t = frame_of[i];
-    drops.clear();
-    for (std::size_t l = 0; l < leg_count; ++l) {
-      const simd::LegGeometry& g = geo[l];
-      if (!active[l][std::size_t(t)]) continue;
-      const double r = g.len[2 * stride + i];
-      if (g.distance[i] <= r * r || !translated(root[l])) continue;  // squared: no root
-      const double tx = g.to_target[i], tz = g.to_target[2 * stride + i];
-      const double horizontal = std::hypot(tx, tz);
-      const double height = -g.to_target[stride + i];  // hip above the target
-      double d = horizontal < r ? height - std::sqrt(r * r - horizontal * horizontal) : height;
-      d = std::max(d, 0.0);
-      auto it = std::find_if(drops.begin(), drops.end(),
-                             [&](const auto& e) { return e.first == root[l]; });
-      if (it == drops.end())
-        drops.emplace_back(root[l], d);
-      else
-        it->second = std::max(it->second, d);
+  // Pass B: the roots' drops, per frame (only where a planted leg cannot reach its target), per
+  // leg (padded rows: LegKneeCosine reads whole vectors); the roots are lowered in pass C.
+  s.leg_drops.resize(leg_count * padded);
+  std::fill(s.leg_drops.begin(), s.leg_drops.end(), 0.0);
+  std::vector<std::pair<int, double>>& drops = s.drops;
+  // Last chunk first: the first is then the one held for pass C (frames are independent here).
+  for (std::size_t c = (n - 1) / chunk + 1; c-- > 0;) {
+    const std::size_t begin = c * chunk, m = std::min(chunk, n - begin);
+    forward(begin, m);
+    for (std::size_t l = 0; l < leg_count; ++l) geometry_of(l, begin, m, true);
+    held_geometry = begin;
+    for (std::size_t k = 0; k < m; ++k) {
+      const int t = frame_of[begin + k];
+      drops.clear();
+      for (std::size_t l = 0; l < leg_count; ++l) {
+        if (!active(l, t)) continue;
+        const double* len = leg_plane(l, kLen);
+        const double* to_target = leg_plane(l, kToTarget);
+        const double r = len[2 * stride + k];
+        if (leg_plane(l, kDistance)[k] <= r * r || !translated(root[l])) continue;  // squared
+        add_drop(drops, root[l],
+                 root_drop(std::hypot(to_target[k], to_target[2 * stride + k]),
+                           -to_target[stride + k], r));  // the hip's height above the target
+      }
+      for (std::size_t l = 0; l < leg_count; ++l)
+        s.leg_drops[l * padded + begin + k] = drop_of(drops, root[l]);
     }
-    bool lowered = false;
-    for (const auto& [r, d] : drops) {
-      if (d <= 0) continue;
-      float* p = job.translations.at(t, r);
-      p[1] = float(double(p[1]) - d);
-      lowered = true;
-      stats.max_drop = std::max(stats.max_drop, d);
-    }
-    stats.lowered_frames += lowered;
-    for (std::size_t l = 0; l < leg_count; ++l)
-      for (const auto& [r, d] : drops)
-        if (r == root[l]) drop[l][i] = std::max(d, 0.0);
   }
 
-  // The knee's speed limit and the IK, per leg (reference: the same steps, frame by frame).
+  // The knee's speed limit per leg (reference: the same steps, frame by frame): which frames
+  // the IK touches, the filter's knee turn per step, the band that returns to 0.
   const double step_limit = knee_speed_limit > 0 ? knee_speed_limit * job.frame_time : 0.0;
-  std::vector<double> low(std::size_t(frames), 0.0), high(std::size_t(frames), 0.0),
-      gain(std::size_t(frames), 0.0), room(std::size_t(frames), 0.0);
-  std::vector<std::uint8_t> ik(std::size_t(frames), 0), solve(n, 0);
-  double* const turn = take(1);
-  double* const cos1 = take(1);
-  double* const theta1 = take(1);
-  double* const normal = take(3);
+  // low and high are written on every IK frame before they are read (on the solved ones).
+  s.low.resize(leg_count * F);
+  s.high.resize(leg_count * F);
+  s.gain.resize(leg_count * F);
+  s.room.resize(leg_count * F);
+  s.ik.resize(leg_count * F);
+  s.turn.resize(padded);
+  std::fill(s.turn.begin() + std::ptrdiff_t(n), s.turn.end(), 1.0);
+  double* const turn = s.turn.data();
   for (std::size_t l = 0; l < leg_count; ++l) {
-    const FootChain& leg = chains[l];
-    const simd::LegGeometry& g = geo[l];
-    std::fill(ik.begin(), ik.end(), 0);
+    const double* const drop = s.leg_drops.data() + l * padded;
+    const double* const knee_cos = s.knee_cos.data() + l * (F + 1);
+    const double* const theta_f = s.theta_f.data() + l * n;
+    std::uint8_t* const ik = s.ik.data() + l * F;
+    double *const low = s.low.data() + l * F, *const high = s.high.data() + l * F,
+                  *const gain = s.gain.data() + l * F, *const room = s.room.data() + l * F;
+    std::fill(ik, ik + F, 0);
     // The knee's turn per step into each touched frame next to this leg's IK (frames ascend:
     // ik[t - 1] is set before frame t is reached).
     auto steps = [&](int t) {
       return t > 0 && (job.counted_steps.empty() || job.counted_steps[std::size_t(t)]) &&
-             (ik[std::size_t(t)] || ik[std::size_t(t - 1)]);
+             (ik[t] || ik[t - 1]);
     };
     for (std::size_t i = 0; i < n; ++i) {
       const int t = frame_of[i];
-      ik[std::size_t(t)] = active[l][std::size_t(t)] || drop[l][i] > 0;
-      turn[i] = steps(t) ? std::min(1.0, knee_cos[l][std::size_t(t)]) : 1.0;
+      ik[t] = active(l, t) || drop[i] > 0;
+      turn[i] = steps(t) ? std::min(1.0, knee_cos[t]) : 1.0;
     }
     simd::acos_planes(turn, turn, n);
-    std::fill(gain.begin(), gain.end(), 0.0);
-    std::fill(room.begin(), room.end(), step_limit);
+    std::fill(gain, gain + F, 0.0);
+    std::fill(room, room + F, step_limit);
     room[0] = INFINITY;
     if (!job.counted_steps.empty())
       for (int t = 1; t < frames; ++t)
-        if (!job.counted_steps[std::size_t(t)]) room[std::size_t(t)] = INFINITY;
-    // The normal carried over straight frames (first: the first frame's that has one).
-    Vec3 nrm{};
-    for (std::size_t i = 0; i < n; ++i)
-      if (g.bent[i] != 0) {
-        nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
-        break;
-      }
-    if (norm(nrm) == 0) {
-      Quat h{};
-      if (frame_of[0] == 0) {
-        const double* r = rot(leg.hip);
-        h = {r[0], r[stride], r[2 * stride], r[3 * stride]};
-      }
-      nrm = rotate(h, Vec3{1, 0, 0});
-    }
+        if (!job.counted_steps[std::size_t(t)]) room[t] = INFINITY;
     for (std::size_t i = 0; i < n; ++i) {
       const int t = frame_of[i];
       if (steps(t)) {
         const double turn_angle = 2 * turn[i];
-        const double gi = g.theta_f[i] - g.theta_f[std::size_t(index_of[std::size_t(t - 1)])];
+        const double gi = theta_f[i] - theta_f[std::size_t(index_of[std::size_t(t - 1)])];
         const double twist2 = std::max(0.0, turn_angle * turn_angle - gi * gi);
-        gain[std::size_t(t)] = gi;
-        room[std::size_t(t)] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
+        gain[t] = gi;
+        room[t] = std::sqrt(std::max(0.0, step_limit * step_limit - twist2));
       }
-      if (g.bent[i] != 0) nrm = {g.normal[i], g.normal[stride + i], g.normal[2 * stride + i]};
-      normal[i] = nrm.x;
-      normal[stride + i] = nrm.y;
-      normal[2 * stride + i] = nrm.z;
-      solve[i] = ik[std::size_t(t)] && g.len[i] > 0 && g.len[stride + i] > 0;
     }
     double lo = -INFINITY, hi = INFINITY;
     for (int t = frames - 1; t >= 0; --t) {
-      if (!ik[std::size_t(t)]) {
+      if (!ik[t]) {
         lo = hi = 0;
         continue;
       }
       if (t + 1 < frames) {
-        lo += gain[std::size_t(t + 1)] - room[std::size_t(t + 1)];
-        hi += gain[std::size_t(t + 1)] + room[std::size_t(t + 1)];
+        lo += gain[t + 1] - room[t + 1];
+        hi += gain[t + 1] + room[t + 1];
       }
-      low[std::size_t(t)] = lo;
-      high[std::size_t(t)] = hi;
+      low[t] = lo;
+      high[t] = hi;
     }
+    Vec3& first = s.first_normals[l];
+    if (norm(first) == 0) first = rotate(hip_at_0[l], Vec3{1, 0, 0});
+  }
 
-    // The wanted cosine; the limit.
-    simd::leg_knee_cosine(g.to_target, drop[l], g.len, cos1, theta1, solve.data(), n, stride);
-    if (step_limit > 0) {
-      double delta = 0;  // Delta(t - 1)
-      for (std::size_t i = 0; i < n; ++i) {
-        const int t = frame_of[i];
-        if (i > 0 && frame_of[i - 1] != t - 1) delta = 0;  // an untouched frame between
-        if (!solve[i]) {
-          delta = 0;
-          continue;
-        }
-        const double wanted = theta1[i] - g.theta_f[i];
-        const double gi = gain[std::size_t(t)], qi = room[std::size_t(t)];
-        const double a = std::max(low[std::size_t(t)], delta - gi - qi),
-                     b = std::min(high[std::size_t(t)], delta - gi + qi);
-        const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
-        if (limited != wanted) cos1[i] = std::cos(g.theta_f[i] + limited);
-        delta = limited;
+  // Pass C: the wanted cosine, the limit, the IK; then the chunk's roots lowered.
+  std::vector<Vec3>& carried = s.first_normals;  // the normal carried over straight frames
+  s.deltas.assign(leg_count, 0.0);               // Delta(t - 1) per leg
+  s.solve.resize(stride);
+  std::uint8_t* const solve = s.solve.data();
+  for (std::size_t begin = 0; begin < n; begin += chunk) {
+    const std::size_t m = std::min(chunk, n - begin);
+    forward(begin, m);
+    for (std::size_t l = 0; l < leg_count; ++l) {
+      const FootChain& leg = chains[l];
+      if (begin != held_geometry) geometry_of(l, begin, m, true);
+      const simd::LegGeometry g = geometry(l);
+      const std::uint8_t* const ik = s.ik.data() + l * F;
+      const double *const low = s.low.data() + l * F, *const high = s.high.data() + l * F,
+                          *const gain = s.gain.data() + l * F, *const room = s.room.data() + l * F;
+      Vec3& nrm = carried[l];
+      for (std::size_t k = 0; k < m; ++k) {
+        const int t = frame_of[begin + k];
+        if (g.bent[k] != 0) nrm = {g.normal[k], g.normal[stride + k], g.normal[2 * stride + k]};
+        normal[k] = nrm.x;
+        normal[stride + k] = nrm.y;
+        normal[2 * stride + k] = nrm.z;
+        solve[k] = ik[t] && g.len[k] > 0 && g.len[stride + k] > 0;
       }
+      simd::leg_knee_cosine(g.to_target, s.leg_drops.data() + l * padded + begin, g.len, cos1,
+                            theta1, solve, m, stride);
+      if (step_limit > 0) {
+        double& delta = s.deltas[l];  // Delta(t - 1)
+        for (std::size_t k = 0; k < m; ++k) {
+          const std::size_t i = begin + k;
+          const int t = frame_of[i];
+          if (i > 0 && frame_of[i - 1] != t - 1) delta = 0;  // an untouched frame between
+          if (!solve[k]) {
+            delta = 0;
+            continue;
+          }
+          const double wanted = theta1[k] - g.theta_f[k];
+          const double gi = gain[t], qi = room[t];
+          const double a = std::max(low[t], delta - gi - qi),
+                       b = std::min(high[t], delta - gi + qi);
+          const double limited = a <= b ? std::clamp(wanted, a, b) : 0.5 * (a + b);
+          if (limited != wanted) cos1[k] = std::cos(g.theta_f[k] + limited);
+          delta = limited;
+        }
+      }
+      simd::LegIkPlanes io{
+          g.u,
+          g.v,
+          normal,
+          g.cos_f,
+          cos1,
+          g.to_target,
+          rot(parents[std::size_t(leg.hip)]),
+          rot(leg.hip),
+          rot(leg.knee),
+          rot(leg.ankle),
+          {local_rotation(leg.hip), local_rotation(leg.knee), local_rotation(leg.ankle)},
+          solve,
+          rotations.data,
+          std::size_t(joints) * 4,
+          frame_of.data() + begin,
+          {leg.hip, leg.knee, leg.ankle}};
+      simd::leg_ik(io, m, stride);
     }
-    simd::LegIkPlanes io{
-        g.u,
-        g.v,
-        normal,
-        g.cos_f,
-        cos1,
-        g.to_target,
-        rot(parents[std::size_t(leg.hip)]),
-        rot(leg.hip),
-        rot(leg.knee),
-        rot(leg.ankle),
-        {local_rotation(leg.hip), local_rotation(leg.knee), local_rotation(leg.ankle)},
-        solve.data(),
-        rotations.data,
-        std::size_t(joints) * 4,
-        frame_of.data(),
-        {leg.hip, leg.knee, leg.ankle}};
-    simd::leg_ik(io, n, stride);
+    held_geometry = n;  // LegKneeCosine has raised the targets by the drops
+    for (std::size_t k = 0; k < m; ++k) {
+      drops.clear();
+      for (std::size_t l = 0; l < leg_count; ++l)
+        add_drop(drops, root[l], s.leg_drops[l * padded + begin + k]);
+      lower_roots(job.translations, frame_of[begin + k], drops, stats);
+    }
   }
 }
 
@@ -585,24 +732,28 @@ Status FootLockJob::validate() const {
   if (!toe_contacts.empty() && toe_contacts.size() != legs.size())
     return Status::error("foot lock: " + std::to_string(toe_contacts.size()) +
                          " toe contact lists for " + std::to_string(legs.size()) + " legs");
-  std::vector<std::uint8_t> used(std::size_t(joints), 0);
+  // Run once per clip: nothing allocated unless there is an error to explain.
   for (std::size_t l = 0; l < legs.size(); ++l) {
     const FootChain& leg = legs[l];
     if (leg.hip < 0 || leg.knee < 0 || leg.ankle < 0) continue;  // skipped by run()
-    const std::string name = "foot lock: leg " + std::to_string(l);
+    auto name = [l] { return "foot lock: leg " + std::to_string(l); };
     auto in_range = [&](int j) { return j >= 0 && j < joints; };
     if (!in_range(leg.hip) || !in_range(leg.knee) || !in_range(leg.ankle))
-      return Status::error(name + " names a joint out of range");
+      return Status::error(name() + " names a joint out of range");
     if (parents[std::size_t(leg.knee)] != leg.hip || parents[std::size_t(leg.ankle)] != leg.knee)
-      return Status::error(name + " is not a hip -> knee -> ankle chain");
+      return Status::error(name() + " is not a hip -> knee -> ankle chain");
     if (leg.toe >= 0 && (!in_range(leg.toe) || parents[std::size_t(leg.toe)] != leg.ankle))
-      return Status::error(name + ": its toe is not a child of its ankle");
-    for (int j : {leg.hip, leg.knee, leg.ankle}) {
-      if (used[std::size_t(j)]) return Status::error(name + " shares a joint with another leg");
-      used[std::size_t(j)] = 1;
+      return Status::error(name() + ": its toe is not a child of its ankle");
+    // A chain's three joints differ (parents precede children), so only earlier legs can share.
+    for (std::size_t m = 0; m < l; ++m) {
+      const FootChain& other = legs[m];
+      if (other.hip < 0 || other.knee < 0 || other.ankle < 0) continue;
+      for (int j : {leg.hip, leg.knee, leg.ankle})
+        if (j == other.hip || j == other.knee || j == other.ankle)
+          return Status::error(name() + " shares a joint with another leg");
     }
     if (!toe_contacts.empty() && !toe_contacts[l].empty() && leg.toe < 0)
-      return Status::error(name + " has toe contacts but no toe joint");
+      return Status::error(name() + " has toe contacts but no toe joint");
   }
   auto check = [](std::span<const std::vector<ContactInterval>> lists, const char* what) {
     for (std::size_t p = 0; p < lists.size(); ++p)
@@ -623,31 +774,40 @@ Status FootLockJob::validate() const {
 Status FootLockJob::run() const {
   if (Status s = validate(); !s) return s;
   FootLockStats local_stats;
+  FootLockScratch own;  // allocates nothing unless used
+  FootLockScratch& work = scratch != nullptr ? *scratch : own;
   const int frames = rotations.frames, joints = int(parents.size());
-  std::vector<FootChain> chains;  // the complete legs
-  std::vector<const std::vector<ContactInterval>*> ankle_lists, toe_lists;
+  const std::vector<FootChain>& chains = work.chains;  // the complete legs
+  const std::vector<const std::vector<ContactInterval>*>&ankle_lists = work.ankle_lists,
+                          &toe_lists = work.toe_lists;
+  work.chains.clear();
+  work.ankle_lists.clear();
+  work.toe_lists.clear();
   for (std::size_t l = 0; l < legs.size(); ++l) {
     if (legs[l].hip < 0 || legs[l].knee < 0 || legs[l].ankle < 0) continue;
-    chains.push_back(legs[l]);
-    ankle_lists.push_back(&contacts[l]);
-    toe_lists.push_back(toe_contacts.empty() || legs[l].toe < 0 ? nullptr : &toe_contacts[l]);
+    work.chains.push_back(legs[l]);
+    work.ankle_lists.push_back(&contacts[l]);
+    work.toe_lists.push_back(toe_contacts.empty() || legs[l].toe < 0 ? nullptr : &toe_contacts[l]);
   }
   if (chains.empty() || frames == 0) {
     if (stats) *stats = local_stats;
     return {};
   }
-  const std::size_t leg_count = chains.size();
+  const std::size_t leg_count = chains.size(), F = std::size_t(frames);
 
   const int blend = std::max(1, int(std::lround(params.blend_time / frame_time)));
-  std::vector<std::vector<std::uint8_t>> labels(leg_count);
+  work.labels.resize(leg_count * F);
+  auto labels = [&](std::size_t l) { return std::span(work.labels.data() + l * F, F); };
   // The frames the lock can touch, within `blend` frames of a contact of some leg (the offsets
   // are 0 elsewhere), and one more each side (the knee's speed there): only there are the leg
   // frames needed.
-  std::vector<std::uint8_t> touched(std::size_t(frames), 0);
+  std::vector<std::uint8_t>& touched = work.touched;
+  touched.assign(F, 0);
   for (std::size_t l = 0; l < leg_count; ++l) {
-    labels[l] = contact_labels(ankle_lists[l], toe_lists[l], frames);
+    const std::span<std::uint8_t> label = labels(l);
+    contact_labels(ankle_lists[l], toe_lists[l], label);
     for (int t = 0, last = -2 - blend; t < frames; ++t) {
-      if (labels[l][std::size_t(t)] != 0) {
+      if (label[std::size_t(t)] != 0) {
         for (int u = std::max({0, t - blend - 1, last + 1}); u <= t; ++u)
           touched[std::size_t(u)] = 1;
         last = t;
@@ -658,7 +818,7 @@ Status FootLockJob::run() const {
   }
 
   if (implementation == Implementation::fast) {
-    lock_fast(*this, chains, toe_lists, labels, touched, blend, local_stats);
+    lock_fast(*this, work, blend, local_stats);
     if (stats) *stats = local_stats;
     return {};
   }
@@ -712,16 +872,17 @@ Status FootLockJob::run() const {
   }
 
   // The offsets D(t) per leg.
-  std::vector<std::vector<Vec3>> offset(leg_count);
-  std::vector<std::vector<std::uint8_t>> active(leg_count);
+  std::vector<std::vector<Vec3>> offset(leg_count, std::vector<Vec3>(F));
+  std::vector<std::vector<std::uint8_t>> active(leg_count, std::vector<std::uint8_t>(F));
   for (std::size_t l = 0; l < leg_count; ++l) {
-    const std::vector<std::uint8_t>& label = labels[l];
+    const std::span<const std::uint8_t> label = labels(l);
     for (std::uint8_t v : label) local_stats.locked_frames += v != 0;
     auto anchor_at = [&](int anchor, int t) {
       const LegFrame& f = leg_frames[l][std::size_t(t)];
       return anchor == 1 || chains[l].toe < 0 ? f.ankle : f.toe;
     };
-    local_stats.contacts += leg_offsets(frames, anchor_at, label, blend, offset[l], active[l]);
+    local_stats.contacts += leg_offsets(frames, anchor_at, label, blend, std::span(offset[l]),
+                                        std::span(active[l]), work);
   }
 
   // The bend-plane normal of each leg, carried over frames where the leg is straight: first the
@@ -773,29 +934,13 @@ Status FootLockJob::run() const {
       const Vec3 to_target = target[l][std::size_t(t)] - f.hip;
       const double r = reach[l][std::size_t(t)];
       if (norm(to_target) <= r || !lowerable(root[l])) continue;
-      const double horizontal = std::hypot(to_target.x, to_target.z);
-      const double height = f.hip.y - target[l][std::size_t(t)].y;
-      double drop = horizontal < r ? height - std::sqrt(r * r - horizontal * horizontal) : height;
-      drop = std::max(drop, 0.0);
-      auto it = std::find_if(drops.begin(), drops.end(),
-                             [&](const auto& d) { return d.first == root[l]; });
-      if (it == drops.end())
-        drops.emplace_back(root[l], drop);
-      else
-        it->second = std::max(it->second, drop);
+      add_drop(drops, root[l],
+               root_drop(std::hypot(to_target.x, to_target.z),
+                         f.hip.y - target[l][std::size_t(t)].y, r));
     }
-    bool lowered = false;
-    for (const auto& [r, drop] : drops) {
-      if (drop <= 0) continue;
-      float* p = translations.at(t, r);
-      p[1] = float(double(p[1]) - drop);
-      lowered = true;
-      local_stats.max_drop = std::max(local_stats.max_drop, drop);
-    }
-    local_stats.lowered_frames += lowered;
+    lower_roots(translations, t, drops, local_stats);
     for (std::size_t l = 0; l < leg_count; ++l)
-      for (const auto& [r, d] : drops)
-        if (r == root[l]) leg_drop[l][std::size_t(t)] = std::max(d, 0.0);
+      leg_drop[l][std::size_t(t)] = drop_of(drops, root[l]);
   }
 
   // The knee's speed limit (header): per leg, the filtered interior angle theta_f and, over each

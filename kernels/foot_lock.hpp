@@ -49,8 +49,11 @@
 //   not do.
 // Frames with D = 0 on every leg of a root are left bit-identical, and so is every joint that is
 // not a hip, knee or ankle of a leg (rotations) or a lowered root (translation).
+#include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "core/quaternion.hpp"
@@ -84,6 +87,49 @@ struct FootLockStats {
   double max_drop = 0;     // the largest drop of a root (file units)
 };
 
+// The working memory of FootLockJob::run (ozz-animation's scratch buffer): the fast path's planes
+// of one chunk of touched frames and every per-frame and per-leg vector. Owned by the caller and
+// reused across runs (clips): once it has grown to the longest clip, a run allocates nothing and
+// touches no fresh page (README "Feet", cost: fresh memory was most of the lock's time in the
+// pipeline). What it holds between runs means nothing to the next (results do not depend on it);
+// it serves one run at a time (one per thread). The scalar reference allocates its own planes.
+struct FootLockScratch {
+  std::unique_ptr<double[]> planes;  // the fast path's planes of one chunk of frames, one block
+  std::size_t plane_capacity = 0;    // doubles in `planes`
+  std::vector<FootChain> chains;     // the complete legs, and their contact lists
+  std::vector<const std::vector<ContactInterval>*> ankle_lists, toe_lists;
+  // [leg][frame] (flat): contact labels, D(t), locked or blending, the knee's |q(t-1) . q(t)|
+  // ([leg][frame + 1]).
+  std::vector<std::uint8_t> labels, active;
+  std::vector<Vec3> offsets;
+  std::vector<double> knee_cos;
+  // Per frame, or per touched frame (plane index); ik: [leg][frame] in the fast path.
+  std::vector<std::uint8_t> touched, ik, solve, marks;
+  std::vector<int> frame_of, index_of, slot, needed, roots;
+  std::vector<double> low, high, gain, room;  // [leg][frame] in the fast path
+  // Per leg and touched frame (fast path): the anchors ([leg][ankle, toe][i]), the knee's
+  // interior angle, the roots' drops (rows padded), the knee's turn (one leg at a time).
+  std::vector<Vec3> anchors;
+  std::vector<double> theta_f, leg_drops, turn;
+  // Per leg: the bend-plane normal carried over straight frames, the hip's rotation at frame 0,
+  // the knee limit's Delta(t - 1).
+  std::vector<Vec3> first_normals;
+  std::vector<Quat> hip_rotations;
+  std::vector<double> deltas;
+  // One contact's anchor positions and their x, z (the pins' medians).
+  std::vector<Vec3> points;
+  std::vector<double> xs, zs;
+  struct Segment {  // a run of frames with the same anchor (1: ankle, 2: toe)
+    int begin, end, anchor;
+  };
+  struct Cluster {  // a contact: a run of adjacent segments, indices inclusive
+    int first, last;
+  };
+  std::vector<Segment> segments;
+  std::vector<Cluster> clusters;
+  std::vector<std::pair<int, double>> drops;  // (root, drop) at one frame
+};
+
 struct FootLockJob {
   FootLockParams params;
   // Skeleton (forward_kinematics.hpp's conventions): parents precede children.
@@ -105,6 +151,8 @@ struct FootLockJob {
   // knee's speed limit does not hold across it.
   std::span<const std::uint8_t> counted_steps;
   FootLockStats* stats = nullptr;  // optional, written
+  // Optional working memory kept across runs (nullptr: the run allocates its own).
+  FootLockScratch* scratch = nullptr;
   // reference: the scalar path, frame by frame, as the equations above. fast: the same steps
   // with the touched frames as planes through kernels/simd/foot_lock_simd.hpp; only the rounding
   // differs (tests/kernels/foot_lock_test.cpp compares them).

@@ -51,7 +51,7 @@ ClipFeet detect_feet(const Clip& clip) {
 }
 
 Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params,
-                 std::span<const std::uint8_t> counted_steps) {
+                 std::span<const std::uint8_t> counted_steps, FootLockScratch* scratch) {
   if (feet.legs.empty()) return {};
   const Skeleton& sk = *filtered.skeleton;
   const std::vector<std::uint8_t> translated = sk.translated_mask();
@@ -67,6 +67,7 @@ Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params,
   job.contacts = feet.contacts;
   job.counted_steps = counted_steps;
   job.stats = &feet.stats;
+  job.scratch = scratch;
   if (Status s = job.run(); !s) return s;
   feet.locked = true;
   return {};
@@ -113,7 +114,8 @@ std::string describe_feet(const nlohmann::json& summary) {
                      lowered ? fmt::format(", root lowered on {} frames", lowered) : "");
 }
 
-Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<Segment>& segments) {
+Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<Segment>& segments,
+                             FootLockScratch* scratch) {
   const std::size_t joints = std::size_t(filtered.joints());
   std::vector<std::pair<Segment, std::pair<std::vector<float>, std::vector<float>>>> kept;
   for (const Segment& s : segments) {
@@ -126,15 +128,15 @@ Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<S
                                         filtered.translations.begin() + std::ptrdiff_t(end * 3))}});
   }
   // The knee's speed limit: the filtered clip's peak over the steps inside its segments (a
-  // step into CMU's T-pose frame is not motion).
+  // step into CMU's T-pose frame is not motion), which the job finds itself (max_knee_speed 0:
+  // peak_knee_speed over counted_steps, from the pass it makes anyway); a peak of 0 (knees that
+  // never turn) binds nothing.
   std::vector<std::uint8_t> counted(std::size_t(filtered.frames), segments.empty() ? 1 : 0);
   for (const Segment& s : segments)
     for (int t = s.begin + 1; t < s.end; ++t) counted[std::size_t(t)] = 1;
   FootLockParams params;
-  params.max_knee_speed =
-      peak_knee_speed(filtered.rotation_view(), feet.legs, filtered.frame_time, counted);
-  if (params.max_knee_speed == 0) params.max_knee_speed = -1;  // knees that never turn: no limit
-  const Status status = lock_feet(feet, filtered, params, counted);
+  params.max_knee_speed = 0;
+  const Status status = lock_feet(feet, filtered, params, counted, scratch);
   for (const auto& [s, values] : kept) {
     const std::size_t begin = std::size_t(s.begin) * joints;
     std::copy(values.first.begin(), values.first.end(),

@@ -31,14 +31,19 @@ std::vector<float> joint_positions(const Clip& clip);
 ClipFeet detect_feet(const Clip& clip);
 
 // Pins the planted feet of `filtered` (the clip detect_feet saw, filtered) in place.
-// `counted_steps` (optional, one per frame): FootLockJob's.
+// `counted_steps` (optional, one per frame): FootLockJob's. `scratch` (optional): working memory
+// reused across clips, one per thread (tbb::enumerable_thread_specific): only the lock's run()
+// uses it, and that makes no TBB call, so no task the thread steals can find it in use. Results
+// do not depend on it.
 Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params = {},
-                 std::span<const std::uint8_t> counted_steps = {});
+                 std::span<const std::uint8_t> counted_steps = {},
+                 FootLockScratch* scratch = nullptr);
 
 // lock_feet, with the frames of the segments the filter leaves as they came (one-frame segments
 // between impossible steps, kernels/motion_split.hpp: CMU's synthetic T-pose frame 0) restored
 // afterwards: they are not motion, and a T-pose must come out a T-pose.
-Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<Segment>& segments);
+Status lock_feet_in_segments(ClipFeet& feet, Clip& filtered, const std::vector<Segment>& segments,
+                             FootLockScratch* scratch = nullptr);
 
 // Over a run: contacts per clip.
 struct FeetTally {

@@ -42,7 +42,7 @@ Status MotionGuardJob::run() {
   const ClipFeet contacts = feet ? *feet : ClipFeet{};
   auto lock = [&](Clip& clip) -> Status {
     *feet = contacts;
-    return lock_feet_in_segments(*feet, clip, *segments);
+    return lock_feet_in_segments(*feet, clip, *segments, lock_scratch);
   };
   auto unlock = [&] {
     if (feet) *feet = contacts;

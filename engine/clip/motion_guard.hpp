@@ -43,6 +43,8 @@ struct MotionGuardJob {
   const std::vector<Segment>* segments = nullptr;  // resolved segments (may be empty)
   ClipFeet* feet = nullptr;  // contacts found on `input`; nullptr: no foot lock
   bool guard = true;         // false: filtered (and locked) whatever it measures
+  // Optional: the lock's working memory, reused across clips (lock_feet's `scratch`).
+  FootLockScratch* lock_scratch = nullptr;
   // In and out: the filtered clip; replaced by the candidate kept.
   Clip* output = nullptr;
   // Outputs.

@@ -1,5 +1,6 @@
 #include "engine/run/job.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -75,6 +76,8 @@ RunSummary run_job(const Job& job) {
   MotionTally motion;
   FeetTally feet;
   feet.lock = settings.lock_feet && settings.method != Method::none;
+  // The foot lock's working memory, one per thread, reused across clips (lock_feet).
+  tbb::enumerable_thread_specific<FootLockScratch> lock_scratch;
   StageTimes times;
   using Timed = StageTimes::Scope;
   PipelineStages stages;
@@ -183,6 +186,7 @@ RunSummary run_job(const Job& job) {
       g.before = &state.before;
       g.segments = &state.resolved.segments;
       g.feet = feet.lock ? &state.feet : nullptr;
+      g.lock_scratch = &lock_scratch.local();
       g.output = &item.output;
       if (const Status s = g.run(); !s.ok()) return item.fail(s.message());
       state.after = std::move(g.after);
@@ -204,7 +208,8 @@ RunSummary run_job(const Job& job) {
     if (feet.lock && !guard) {
       auto& state = std::any_cast<ClipState&>(item.context);
       const Timed timed(times, StageTimes::lock);
-      if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments);
+      if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments,
+                                                 &lock_scratch.local());
           !s.ok())
         return item.fail("foot lock: " + s.message());
     }

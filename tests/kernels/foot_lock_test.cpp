@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "kernels/forward_kinematics.hpp"
@@ -300,12 +301,14 @@ TEST(FootLock, TheKneeTurnsNoFasterThanTheInputsPeakAtAContactsEnds) {
 // two round differently, fused multiply-adds and Highway's acos), and the same statistics. Cases:
 // both legs locked with toe contacts, a gap between touched frames, an unreachable pin (the root
 // lowered), without the knee's speed limit, with it binding, a step that is not motion
-// (counted_steps) inside a contact, at 30 and 120 fps.
+// (counted_steps) inside a contact, at 30 and 120 fps; and clips long enough that the fast path
+// takes their touched frames in several chunks.
 TEST(FootLock, TheFastPathMatchesTheReference) {
   struct Case {
     double frame_time, speed, knee_speed;
     std::vector<std::vector<ContactInterval>> contacts, toes;
     int uncounted_step = -1;  // a frame t whose step t-1 -> t is not motion
+    double seconds = 2;
   };
   const std::vector<Case> cases = {
       {1.0 / 120,
@@ -318,10 +321,26 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}},
       {1.0 / 30, 1.6 * Walk::kPlantedSpeed, 0, {{{24, 38}}, {}}, {}},
       {1.0 / 120, 1.6 * Walk::kPlantedSpeed, 0, {{{96, 150}}, {{30, 60}}}, {}, 120},
+      // Over 512 touched frames: the fast path's planes hold them in several chunks.
+      {1.0 / 120,
+       Walk::kPlantedSpeed,
+       0,
+       {{{0, 12}, {100, 140}, {250, 420}, {600, 700}}, {{50, 80}, {170, 200}, {450, 560}}},
+       {{{12, 20}}, {{80, 86}}},
+       -1,
+       6},
+      {1.0 / 120,
+       1.6 * Walk::kPlantedSpeed,
+       0,
+       {{{96, 150}, {240, 330}, {700, 900}}, {{30, 60}, {500, 700}}},
+       {},
+       300,
+       8},
+      {1.0 / 120, 4.0, -1, {{{150, 300}, {450, 700}}, {{330, 430}}}, {}, -1, 6},
   };
   for (std::size_t c = 0; c < cases.size(); ++c) {
     const Case& k = cases[c];
-    const int frames = int(std::lround(2.0 / k.frame_time));
+    const int frames = int(std::lround(k.seconds / k.frame_time));
     Walk walks[2] = {Walk(frames, k.frame_time, k.speed), Walk(frames, k.frame_time, k.speed)};
     FootLockStats stats[2];
     const std::vector<FootChain> legs = walk_legs();
@@ -365,6 +384,87 @@ TEST(FootLock, TheFastPathMatchesTheReference) {
                 largest, moved);
     EXPECT_LE(largest, 1e-6) << "case " << c;
     EXPECT_GT(moved, 1e-3) << "case " << c << ": the lock did nothing, the test would be vacuous";
+  }
+}
+
+// One scratch reused across clips of different sizes (FootLockScratch: what a run leaves in it
+// means nothing to the next) gives the bits a fresh one gives, on both paths; and once it has
+// held the largest clip, smaller and equal ones reuse its planes (nothing allocated per clip).
+TEST(FootLock, AReusedScratchGivesTheResultsOfAFreshOne) {
+  struct Case {
+    int frames;
+    double frame_time, speed;
+    std::vector<std::vector<ContactInterval>> contacts, toes;
+  };
+  const std::vector<Case> clips = {
+      {240,
+       1.0 / 120,
+       Walk::kPlantedSpeed,
+       {{{0, 12}, {100, 140}}, {{50, 80}, {170, 200}}},
+       {{{12, 20}}, {{80, 86}}}},
+      {60, 1.0 / 30, Walk::kPlantedSpeed, {{{2, 10}, {25, 35}}, {{14, 20}}}, {}},
+      {300, 1.0 / 120, 4.0, {{{100, 140}}, {{200, 260}}}, {}},  // the root lowered
+      {45, 1.0 / 30, 1.6 * Walk::kPlantedSpeed, {{{24, 38}}, {}}, {}},
+      {240, 1.0 / 120, Walk::kPlantedSpeed, {{{30, 90}}, {{120, 180}}}, {}},
+      {720,  // several chunks of planes
+       1.0 / 120,
+       Walk::kPlantedSpeed,
+       {{{0, 12}, {100, 140}, {250, 420}, {600, 700}}, {{50, 80}, {170, 200}, {450, 560}}},
+       {{{12, 20}}, {{80, 86}}}},
+  };
+  const std::vector<FootChain> legs = walk_legs();
+  for (Implementation implementation : {Implementation::fast, Implementation::reference}) {
+    FootLockScratch reused;
+    const double* steady_planes = nullptr;
+    for (int pass = 0; pass < 2; ++pass)
+      for (std::size_t c = 0; c < clips.size(); ++c) {
+        const Case& k = clips[c];
+        Walk walks[2] = {Walk(k.frames, k.frame_time, k.speed),
+                         Walk(k.frames, k.frame_time, k.speed)};
+        FootLockStats stats[2];
+        FootLockScratch fresh;
+        for (int i = 0; i < 2; ++i) {
+          FootLockJob job;
+          job.parents = walks[i].parents;
+          job.offsets = walks[i].offsets;
+          job.translated_joints = walks[i].translated;
+          job.frame_time = k.frame_time;
+          job.rotations = {walks[i].rotations.data(), k.frames, Walk::kJoints};
+          job.translations = {walks[i].translations.data(), k.frames, Walk::kJoints};
+          job.legs = legs;
+          job.contacts = k.contacts;
+          job.toe_contacts = k.toes;
+          job.stats = &stats[i];
+          job.scratch = i == 0 ? &fresh : &reused;
+          job.implementation = implementation;
+          const Status s = job.run();
+          ASSERT_TRUE(s.ok()) << s.message();
+        }
+        const std::string what = std::string(to_string(implementation)) + ", pass " +
+                                 std::to_string(pass) + ", clip " + std::to_string(c);
+        EXPECT_TRUE(same_bits(walks[0].rotations.data(), walks[1].rotations.data(),
+                              int(walks[0].rotations.size())))
+            << what;
+        EXPECT_TRUE(same_bits(walks[0].translations.data(), walks[1].translations.data(),
+                              int(walks[0].translations.size())))
+            << what;
+        EXPECT_EQ(stats[0].contacts, stats[1].contacts) << what;
+        EXPECT_EQ(stats[0].locked_frames, stats[1].locked_frames) << what;
+        EXPECT_EQ(stats[0].lowered_frames, stats[1].lowered_frames) << what;
+        EXPECT_EQ(stats[0].max_drop, stats[1].max_drop) << what;
+        const Walk original(k.frames, k.frame_time, k.speed);
+        EXPECT_FALSE(same_bits(walks[1].rotations.data(), original.rotations.data(),
+                               int(original.rotations.size())))
+            << what << ": the lock did nothing, the test would be vacuous";
+        // The second pass: every clip has been seen, so the planes stay where they are.
+        if (pass == 0 && c + 1 == clips.size()) steady_planes = reused.planes.get();
+        if (pass == 1) {
+          EXPECT_EQ(reused.planes.get(), steady_planes) << what << ": reallocated";
+        }
+      }
+    if (implementation == Implementation::fast) {
+      EXPECT_NE(steady_planes, nullptr);
+    }
   }
 }
 
