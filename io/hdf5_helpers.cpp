@@ -265,7 +265,9 @@ std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
   if (H5Pget_external_count(properties.get()) != 0) return "its data lives in external files";
   switch (H5Pget_layout(properties.get())) {
     case H5D_COMPACT:  // held in the object header itself, under 64 KiB
-      return {};
+    // libhdf5 1.10 copies a compact dataset's elements out of the buffer its layout message
+    // holds without comparing their sizes: a buffer shorter than the data overflowed (a fuzz
+    // finding), so the same check as contiguous storage.
     case H5D_CONTIGUOUS: {
       const Datatype type(H5Dget_type(dataset));
       const std::size_t size = type ? H5Tget_size(type.get()) : 0;
@@ -312,13 +314,25 @@ std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
         return with_detail("cannot read the size of its file");
       // libhdf5 1.10's Fletcher-32 filter takes the checksum off the chunk's end unchecked: a
       // chunk stored shorter than the checksum reads the whole address space (a fuzz finding).
-      const hsize_t least = has_filter(properties.get(), H5Z_FILTER_FLETCHER32) ? 4 : 0;
+      const bool fletcher = has_filter(properties.get(), H5Z_FILTER_FLETCHER32);
+      const hsize_t least = fletcher ? 4 : 0;
+      // Unfiltered chunks (or checksummed only) are stored whole: HDF5 copies a chunk's bytes
+      // out of the buffer it read without comparing the two sizes (a short one overflowed, a
+      // fuzz finding).
+      const int filters = H5Pget_nfilters(properties.get());
+      const hsize_t exact = filters == 0               ? chunk_bytes
+                            : filters == 1 && fletcher ? chunk_bytes + 4
+                                                       : 0;
       std::string problem;
       for_each_chunk(dims, chunk, [&](const hsize_t* offset) {
         hsize_t bytes = 0;
         if (H5Dget_chunk_storage_size(dataset, offset, &bytes) < 0) {
           problem = with_detail("cannot find its chunk at " +
                                 shape(std::vector<hsize_t>(offset, offset + rank)));
+        } else if (exact != 0 && bytes != exact) {
+          problem = "its chunk at " + shape(std::vector<hsize_t>(offset, offset + rank)) +
+                    " stores " + std::to_string(bytes) + " bytes where a chunk of it holds " +
+                    std::to_string(exact);
         } else if (bytes < least) {
           problem = "its chunk at " + shape(std::vector<hsize_t>(offset, offset + rank)) +
                     " stores " + std::to_string(bytes) +
@@ -330,7 +344,13 @@ std::string check_storage(hid_t dataset, const std::vector<hsize_t>& dims) {
         }
         return problem.empty();
       });
-      return problem;
+      if (!problem.empty()) return problem;
+      // The index may contradict itself (a single chunk's size implied whole, its storage size
+      // short): both must agree.
+      if (exact != 0 && H5Dget_storage_size(dataset) != stored * exact)
+        return "the file stores " + std::to_string(H5Dget_storage_size(dataset)) + " of its " +
+               std::to_string(stored * exact) + " bytes of chunks";
+      return {};
     }
     default:
       return "its storage layout is unknown";

@@ -164,10 +164,39 @@ TEST(HostileChunks, AChunkShorterThanItsChecksumIsRefusedBeforeHdf5ReadsIt) {
       H5Fclose(file);
     }
     const std::string error = read_error(lib);
-    EXPECT_NE(error.find("stores 2 bytes, fewer than its Fletcher-32 checksum's 4"),
+    // Unfiltered but for the checksum, a chunk has one right size; compressed, at least 4.
+    EXPECT_NE(error.find(compression == Compression::none
+                             ? "stores 2 bytes where a chunk of it holds 100"
+                             : "stores 2 bytes, fewer than its Fletcher-32 checksum's 4"),
               std::string::npos)
         << error;
   }
+}
+
+// An unfiltered chunk is stored whole; HDF5 copies a whole chunk out of what it read, whatever
+// the index says was stored (a heap-buffer-overflow, library_image_fuzz: a single-chunk index
+// whose storage size was short, which the API cannot write). Checksummed only, the index records
+// each chunk's size, and a short one is refused before HDF5 reads it. (Without any filter HDF5
+// records no size: a chunk is whole by definition.)
+TEST(HostileChunks, AnUnfilteredChunkStoredShortIsRefusedBeforeHdf5ReadsIt) {
+  test::TempDir dir("hostile-chunks");
+  const fs::path lib = dir / "lib.h5";
+  const std::size_t whole = kFrames * kJoints * 4 * 4 + 4;  // the clip in one chunk, checksummed
+  write_library(lib, Compression::none, true);
+  {
+    const hid_t file = H5Fopen(lib.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    const hid_t dataset = H5Dopen2(file, "/clips/c/rotations", H5P_DEFAULT);
+    const hsize_t origin[3] = {0, 0, 0};
+    const std::vector<std::uint8_t> half(whole / 2, 0);
+    EXPECT_GE(H5Dwrite_chunk(dataset, H5P_DEFAULT, 0, origin, half.size(), half.data()), 0);
+    H5Dclose(dataset);
+    H5Fclose(file);
+  }
+  const std::string error = read_error(lib);
+  EXPECT_NE(error.find("stores " + std::to_string(whole / 2) + " bytes where a chunk of it holds " +
+                       std::to_string(whole)),
+            std::string::npos)
+      << error;
 }
 
 // The LZ4 plugin allocates the size a chunk's header states and decodes with
