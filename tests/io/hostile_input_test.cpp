@@ -615,6 +615,18 @@ TEST(HostileBvh, APositionBeyondFloatRangeIsAnErrorNamingTheLine) {
   EXPECT_NE(r.error->message.find("out of range"), std::string::npos) << r.error->message;
 }
 
+// The largest float's shortest text, which export writes for it, reads back as that float; the
+// next value past the rounding midpoint does not (a library_reader_fuzz finding: import refused
+// "3.4028235e+38" that export had written).
+TEST(HostileBvh, TheLargestFloatReadsBackAndTheNextValueIsRefused) {
+  const auto r = parse_bvh(bvh_with("Head", "3.4028235e+38 2 3 4 5 6 7 8 9 10 11 12"), "max.bvh");
+  ASSERT_FALSE(r.error) << r.error->message;
+  EXPECT_EQ(r.clip->translations[9], std::numeric_limits<float>::max());  // frame 1, Xposition
+  const auto past = parse_bvh(bvh_with("Head", "3.40282357e+38 2 3 4 5 6 7 8 9 10 11 12"), "x.bvh");
+  ASSERT_TRUE(past.error) << "read as " << past.clip->translations[9];
+  EXPECT_NE(past.error->message.find("out of range"), std::string::npos) << past.error->message;
+}
+
 TEST(HostileBvh, ImportOfDuplicateJointNamesExitsOneNamingTheFile) {
   test::TempDir dir("hostile-bvh");
   {
