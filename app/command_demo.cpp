@@ -3,19 +3,38 @@
 // `clean`, and scores the result against the ground truth.
 #include <fmt/core.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "app/commands.hpp"
 #include "app/report.hpp"
+#include "engine/clip/foot_stage.hpp"
 #include "engine/library/demo_library.hpp"
 #include "io/bvh_reader.hpp"
 #include "io/bvh_writer.hpp"
 #include "kernels/metrics.hpp"
 #include "kernels/noise_model.hpp"
+#include "kernels/position_metrics.hpp"
 
 namespace mocap::engine {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// Joint position error (MPJPE) of `result` against `truth` after forward kinematics, in mm (the
+// built-in skeleton is in cm), over the frames eval scores; NaN when the shapes differ.
+double position_error_mm(const Clip& result, const Clip& truth) {
+  const std::vector<float> r = joint_positions(result), g = joint_positions(truth);
+  if (r.empty() || r.size() != g.size()) return std::nan("");
+  PositionSums sums;
+  add_position_error({r.data(), result.frames, result.joints()},
+                     {g.data(), truth.frames, truth.joints()},
+                     scored_frames(0, truth.frames, truth.frame_time), sums);
+  return 10 * sums.mpjpe();
+}
+
+}  // namespace
 
 int run_demo(const DemoCommand& command) {
   const fs::path root(command.output_dir);
@@ -60,24 +79,33 @@ int run_demo(const DemoCommand& command) {
 
   nlohmann::json scores = nlohmann::json::array();
   if (!command.run.json)
-    fmt::print("demo: cleaned with --method {} into {}\n\n{:<26} {:>7} {:>7} {:>13} {:>13} {:>8}\n",
-               to_string(settings.method), clean_dir.string(), "clip", "frames", "joints",
-               "noisy PSNR", "cleaned PSNR", "gain");
+    fmt::print(
+        "demo: cleaned with --method {} into {}\n(rotations: PSNR, higher is better; joint "
+        "positions after forward kinematics: MPJPE, lower is better)\n\n{:<26} {:>7} {:>7} {:>13} "
+        "{:>13} {:>8} {:>13} {:>13}\n",
+        to_string(settings.method), clean_dir.string(), "clip", "frames", "joints", "noisy PSNR",
+        "cleaned PSNR", "gain", "noisy MPJPE", "cleaned MPJPE");
   for (std::size_t i = 0; i < library.size(); ++i) {
     const DemoClip& demo = library[i];
     io::BvhReadResult cleaned = io::read_bvh(clean_dir / demo.relative_path);
     if (!cleaned.clip) continue;  // reported as a failure by clean_files
     const double before = psnr(noisy_clips[i].rotation_view(), demo.clip.rotation_view());
     const double after = psnr(cleaned.clip->rotation_view(), demo.clip.rotation_view());
+    const double error_before = position_error_mm(noisy_clips[i], demo.clip);
+    const double error_after = position_error_mm(*cleaned.clip, demo.clip);
     scores.push_back(
         {{"clip", demo.relative_path},
          {"noisy_psnr_db", before},
          {"cleaned_psnr_db", after},
          {"noisy_rmse_rad", rmse(noisy_clips[i].rotation_view(), demo.clip.rotation_view())},
-         {"cleaned_rmse_rad", rmse(cleaned.clip->rotation_view(), demo.clip.rotation_view())}});
+         {"cleaned_rmse_rad", rmse(cleaned.clip->rotation_view(), demo.clip.rotation_view())},
+         {"noisy_mpjpe_mm", error_before},
+         {"cleaned_mpjpe_mm", error_after}});
     if (!command.run.json)
-      fmt::print("{:<26} {:>7} {:>7} {:>10.2f} dB {:>10.2f} dB {:>+5.2f} dB\n", demo.relative_path,
-                 demo.clip.frames, demo.clip.joints(), before, after, after - before);
+      fmt::print(
+          "{:<26} {:>7} {:>7} {:>10.2f} dB {:>10.2f} dB {:>+5.2f} dB {:>10.2f} mm {:>10.2f} mm\n",
+          demo.relative_path, demo.clip.frames, demo.clip.joints(), before, after, after - before,
+          error_before, error_after);
   }
   if (!command.run.json) fmt::print("\n");
   summary.extra["scores"] = scores;

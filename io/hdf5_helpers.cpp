@@ -242,6 +242,8 @@ bool for_each_chunk(const std::vector<hsize_t>& dims, const std::vector<hsize_t>
 
 namespace {
 
+// Not H5Pget_filter_by_id2: for an absent filter it pushes an error onto HDF5's stack, which
+// the next with_detail() would then report as the cause of an unrelated failure.
 bool has_filter(hid_t properties, H5Z_filter_t wanted) {
   const int count = H5Pget_nfilters(properties);
   for (int i = 0; i < count; ++i) {

@@ -242,9 +242,13 @@ TEST(Cli, DemoCleansTheBuiltInLibraryAndGainsOverTheNoise) {
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const auto summary = nlohmann::json::parse(r.out);
   ASSERT_EQ(summary["scores"].size(), 4u);
-  for (const auto& s : summary["scores"])
+  for (const auto& s : summary["scores"]) {
     EXPECT_GT(s["cleaned_psnr_db"].get<double>(), s["noisy_psnr_db"].get<double>() + 3.0)
         << s.dump();
+    // What a viewer sees: the joint positions (issue "positions": <= 0.6x the noisy input's).
+    EXPECT_LE(s["cleaned_mpjpe_mm"].get<double>(), 0.6 * s["noisy_mpjpe_mm"].get<double>())
+        << s.dump();
+  }
 }
 
 TEST(Cli, LibraryRoundTripImportFilterExport) {
