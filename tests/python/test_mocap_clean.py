@@ -388,3 +388,37 @@ def test_the_readme_example_runs_as_written_and_prints_what_the_readme_says(tmp_
                          text=True, check=True)
     assert run.stdout.splitlines() == expected
     assert mc.read_bvh(work / "cleaned.bvh").frames == mc.read_bvh(SHARED / "cmu_mb_02_01.bvh").frames
+
+
+FREED_BLOCK_PROBE = """
+import ctypes
+import mocap_clean
+class MallInfo2(ctypes.Structure):
+    _fields_ = [(n, ctypes.c_size_t) for n in ("arena", "ordblks", "smblks", "hblks", "hblkhd",
+                                                 "usmblks", "fsmblks", "uordblks", "fordblks",
+                                                 "keepcost")]
+libc = ctypes.CDLL(None)
+libc.malloc.restype = ctypes.c_void_p
+libc.free.argtypes = [ctypes.c_void_p]
+libc.mallinfo2.restype = MallInfo2
+block = libc.malloc(8 << 20)
+libc.free(block)
+print(libc.mallinfo2().fordblks)
+"""
+
+
+@pytest.mark.parametrize("host_allocator", [False, True])
+def test_import_keeps_freed_blocks_for_reuse_unless_told_not_to(host_allocator):
+    # As mocap-clean: an 8 MB block freed stays in the heap (free bytes >= 8 MB) for the next call
+    # instead of being unmapped; MOCAP_CLEAN_HOST_ALLOCATOR=1 leaves glibc's defaults (unmapped).
+    env = dict(os.environ)
+    env.pop("MOCAP_CLEAN_HOST_ALLOCATOR", None)
+    if host_allocator:
+        env["MOCAP_CLEAN_HOST_ALLOCATOR"] = "1"
+    out = subprocess.run([sys.executable, "-c", FREED_BLOCK_PROBE], env=env, capture_output=True,
+                         text=True, check=True)
+    free_bytes = int(out.stdout.strip())
+    if host_allocator:
+        assert free_bytes < 8 << 20
+    else:
+        assert free_bytes >= 8 << 20
