@@ -257,6 +257,7 @@ struct Common {
   std::string garbage_joints;
   std::optional<bool> split_impossible;  // None: the CLI's default (on with auto)
   std::string translation_mode;
+  std::optional<std::string> feet, guard;  // None: the CLI's defaults (on with auto)
   int shard_joints, shard_frames, threads;
   bool return_info;
 };
@@ -269,6 +270,8 @@ py::object run_filter(const std::string& method, py::handle data, Options option
   if (c.split_impossible)
     options.emplace_back(*c.split_impossible ? "split-impossible" : "no-split-impossible", "");
   options.emplace_back("translations", c.translation_mode);
+  if (c.feet) options.emplace_back("feet", *c.feet);
+  if (c.guard) options.emplace_back("guard", *c.guard);
   options.emplace_back("shard-joints", std::to_string(c.shard_joints));
   options.emplace_back("shard-frames", std::to_string(c.shard_frames));
   options.emplace_back("threads", std::to_string(c.threads));
@@ -401,22 +404,24 @@ void assign_tensor(Clip& clip, std::vector<float>& target, py::handle value, int
   std::copy(values.begin(), values.end(), target.begin());
 }
 
-#define MOCAP_COMMON_PARAMS                                                                 \
-  py::object translations, std::optional<double> frame_time, bool scalar_first,             \
-      const std::string &boundary, std::optional<std::string> pops,                         \
-      const std::string &garbage_joints, std::optional<bool> split_impossible,              \
-      const std::string &translation_mode, int shard_joints, int shard_frames, int threads, \
+#define MOCAP_COMMON_PARAMS                                                              \
+  py::object translations, std::optional<double> frame_time, bool scalar_first,          \
+      const std::string &boundary, std::optional<std::string> pops,                      \
+      const std::string &garbage_joints, std::optional<bool> split_impossible,           \
+      const std::string &translation_mode, std::optional<std::string> feet,              \
+      std::optional<std::string> guard, int shard_joints, int shard_frames, int threads, \
       bool return_info
 #define MOCAP_COMMON_VALUES                                                                   \
   Common {                                                                                    \
     translations, frame_time, scalar_first, boundary, pops, garbage_joints, split_impossible, \
-        translation_mode, shard_joints, shard_frames, threads, return_info                    \
+        translation_mode, feet, guard, shard_joints, shard_frames, threads, return_info       \
   }
 #define MOCAP_COMMON_ARGS                                                                 \
   py::arg("translations") = py::none(), py::arg("frame_time") = py::none(),               \
   py::arg("scalar_first") = true, py::arg("boundary") = d.word("boundary"),               \
   py::arg("pops") = py::none(), py::arg("garbage_joints") = d.garbage_joints,             \
   py::arg("split_impossible") = py::none(), py::arg("translation_mode") = d.translations, \
+  py::arg("feet") = py::none(), py::arg("guard") = py::none(),                            \
   py::arg("shard_joints") = d.shard_joints, py::arg("shard_frames") = d.shard_frames,     \
   py::arg("threads") = run.threads, py::arg("return_info") = false
 
@@ -436,10 +441,14 @@ garbage_joints: keep | filter (--garbage-joints).
 split_impossible: filter the segments between impossible steps separately (--split-impossible,
     --no-split-impossible); None: the CLI's default (on with auto, off with a named method).
 translation_mode: filter | keep (--translations).
+feet: None (the CLI's default: lock with auto, off with a named method), lock | off (--feet):
+    pin planted feet by two-bone IK after the filter. A Motion only (bare arrays have no legs).
+guard: None (the CLI's default: on with auto), on | off (--guard): fall back where cleaning
+    raised the joint positions' jitter or foot skating. A Motion only.
 shard_joints, shard_frames: task sizes (--shard-joints, --shard-frames); no effect on the bits.
 threads: worker threads, 0 = all cores (--threads); no effect on the bits.
 return_info: also return a dict of what was done (method, parameters, noise_sigma, pops,
-    garbage_joints, segments, unchanged): (result, info).
+    garbage_joints, segments, unchanged, kept: what the guard kept, None without it): (result, info).
 
 The GIL is released while the engine runs. Errors raise ValueError with the CLI's message.)";
 

@@ -422,3 +422,21 @@ def test_import_keeps_freed_blocks_for_reuse_unless_told_not_to(host_allocator):
         assert free_bytes < 8 << 20
     else:
         assert free_bytes >= 8 << 20
+
+
+@needs_clips
+def test_feet_and_guard_are_the_clis_options():
+    motion = mc.read_bvh(str(SHARED / "cmu_mb_02_01.bvh"))
+    noisy = motion.copy()
+    noisy.rotations = mc.add_gaussian_noise(motion.rotations, sigma=0.02, seed=1)
+    _, info = mc.auto(noisy)
+    assert info["kept"].endswith("+lock"), info["kept"]
+    free, free_info = mc.auto(noisy, feet="off")
+    assert "lock" not in free_info["kept"], free_info["kept"]
+    via_filter = mc.filter(noisy, "auto", {"feet": "off"})
+    assert np.array_equal(bits(free.rotations), bits(via_filter.rotations))
+    assert np.array_equal(bits(free.translations), bits(via_filter.translations))
+    _, unguarded = mc.auto(noisy, guard="off")
+    assert unguarded["kept"] is None
+    with pytest.raises(ValueError, match="--feet"):
+        mc.auto(noisy, feet="sideways")
