@@ -448,7 +448,8 @@ guard: None (the CLI's default: on with auto), on | off (--guard): fall back whe
 shard_joints, shard_frames: task sizes (--shard-joints, --shard-frames); no effect on the bits.
 threads: worker threads, 0 = all cores (--threads); no effect on the bits.
 return_info: also return a dict of what was done (method, parameters, noise_sigma, pops,
-    garbage_joints, segments, unchanged, kept: what the guard kept, None without it): (result, info).
+    garbage_joints, segments, unchanged, kept: what the guard kept, None without it):
+    (result, info).
 
 The GIL is released while the engine runs. Errors raise ValueError with the CLI's message.)";
 
