@@ -4,8 +4,8 @@
 // blocks of a few hundred KB per shard; with glibc's defaults such blocks are mmap'ed fresh and
 // returned on free, so every shard pays its page faults and zero-filling again (README
 // "Performance"). A process-wide choice: the program and the kernel benchmark make it at start,
-// so that the benchmark measures the kernels as the program runs them; the Python module leaves
-// its host's allocator alone.
+// so that the benchmark measures the kernels as the program runs them; the Python module makes it
+// at import unless MOCAP_CLEAN_HOST_ALLOCATOR=1 (README "Python").
 
 namespace mocap::engine {
 
