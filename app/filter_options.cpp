@@ -117,8 +117,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
   auto* split_on = cmd.add_flag(
       "--split-impossible", split_impossible_on,
       "filter separately the segments between physically impossible steps (a joint turning "
-      "faster than min(150 rad/s x frame time, 2 rad) in one step, e.g. CMU's synthetic T-pose "
-      "frame 0), so no filter smears such a jump. Default: on with --method auto, off with a "
+      "faster than min(150 rad/s x frame time, 2 rad) in one step, or the whole body: its joints' "
+      "mean turn over max(0.2 rad, 4.5 rad/s x frame time); e.g. CMU's synthetic T-pose frame 0), "
+      "so no filter smears such a jump. Default: on with --method auto, off with a "
       "named method, which then is the spec's filter exactly");
   split_on->group("Cleaning");
   cmd.add_flag("--no-split-impossible", split_impossible_off,

@@ -13,6 +13,10 @@ Status MotionSplitParams::validate() const {
     return Status::error(format("max speed must be > 0 rad/s, got %g", max_speed));
   if (!(max_step > 0) || !std::isfinite(max_step))
     return Status::error(format("max step must be > 0 rad, got %g", max_step));
+  if (!(min_pose_step > 0) || !std::isfinite(min_pose_step))
+    return Status::error(format("min pose step must be > 0 rad, got %g", min_pose_step));
+  if (!(max_pose_speed > 0) || !std::isfinite(max_pose_speed))
+    return Status::error(format("max pose speed must be > 0 rad/s, got %g", max_pose_speed));
   return {};
 }
 
@@ -20,17 +24,39 @@ double MotionSplitParams::step_threshold(double frame_time) const {
   return std::min(max_speed * frame_time, max_step);
 }
 
+double MotionSplitParams::pose_step_threshold(double frame_time) const {
+  return std::max(min_pose_step, max_pose_speed * frame_time);
+}
+
 std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
                                                   const MotionSplitParams& params) {
+  return find_impossible_steps(rotations, frame_time, params, {});
+}
+
+std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
+                                                  const MotionSplitParams& params,
+                                                  std::span<const std::uint8_t> skip) {
   std::vector<ImpossibleStep> steps;
   const double threshold = params.step_threshold(frame_time);
+  const double pose_threshold = params.pose_step_threshold(frame_time);
   for (int t = 0; t + 1 < rotations.frames; ++t) {
-    ImpossibleStep worst{t, -1, 0.0};
+    ImpossibleStep worst{t, -1, 0.0, 0.0};
+    double clamped_sum = 0;
+    int counted = 0;
     for (int j = 0; j < rotations.joints; ++j) {
+      if (!skip.empty() && skip[std::size_t(j)]) continue;
       const double d = geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
-      if (d > threshold && d > worst.angle) worst = {t, j, d};
+      if (d > worst.angle || worst.joint < 0) {
+        worst.joint = j;
+        worst.angle = d;
+      }
+      clamped_sum += std::min(d, kPoseStepJointClamp);
+      ++counted;
     }
-    if (worst.joint >= 0) steps.push_back(worst);
+    if (counted == 0) continue;
+    worst.pose_step = clamped_sum / counted;
+    const bool body_jump = counted >= kPoseStepMinJoints && worst.pose_step > pose_threshold;
+    if (worst.angle > threshold || body_jump) steps.push_back(worst);
   }
   return steps;
 }
@@ -48,19 +74,8 @@ std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep
 
 std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
                                      std::span<const std::uint8_t> skip) {
-  const double limit = MotionSplitParams{}.step_threshold(frame_time);
-  std::vector<ImpossibleStep> steps;
-  for (int t = 0; t + 1 < rotations.frames; ++t)
-    for (int j = 0; j < rotations.joints; ++j) {
-      if (!skip.empty() && skip[std::size_t(j)]) continue;
-      const double angle =
-          geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
-      if (angle > limit) {
-        steps.push_back({t, j, angle});
-        break;
-      }
-    }
-  return split_segments(rotations.frames, steps);
+  return split_segments(rotations.frames,
+                        find_impossible_steps(rotations, frame_time, MotionSplitParams{}, skip));
 }
 
 }  // namespace mocap

@@ -14,6 +14,20 @@
 // eval's impulse pops (at most 1 rad). max_step caps the threshold at low frame rates, where
 // max_speed * frame_time would exceed pi and nothing could ever be flagged.
 // Sign flips of the quaternion (q vs -q) are not steps: the geodesic angle ignores them.
+//
+// Below about 60 fps the per-joint rule alone misses the T-pose: at 30 fps (every 4th frame) its
+// worst joint turns 1.49 to 3.12 rad, against real steps of up to 1.20 rad (05_02's toe) and
+// 06_14's flipping thumb at pi. What sets it apart is that the whole body jumps at once. So a
+// step is also impossible when the pose step, the mean over joints of min(angle, 1 rad) (the
+// clamp keeps one flipping joint from counting as a whole body), exceeds
+//     max(min_pose_step, max_pose_speed * frame_time)
+// Measured on the same clips (mean over 31 joints): the T-pose step is 0.283 to 0.412 rad at any
+// frame rate; real motion reaches at most 0.074 rad at 120 fps, 0.130 at 30 fps (3.9 rad/s),
+// 0.151 at 24 fps and 0.221 at 15 fps (3.3 rad/s). min_pose_step = 0.2 rad sits between the two
+// down to 24 fps; below, max_pose_speed = 4.5 rad/s raises it past real motion, and a T-pose may
+// then go unflagged rather than real motion being cut. The pose step needs a body: with fewer
+// than kPoseStepMinJoints joints counted, one limb swinging, or one joint popping by 1 rad in
+// a 4-joint clip, is a large share of the mean, so the rule is not applied.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -24,18 +38,28 @@
 namespace mocap {
 
 struct MotionSplitParams {
-  double max_speed = 150.0;  // rad/s
-  double max_step = 2.0;     // rad
+  double max_speed = 150.0;     // rad/s
+  double max_step = 2.0;        // rad
+  double min_pose_step = 0.2;   // rad, mean over joints
+  double max_pose_speed = 4.5;  // rad/s, mean over joints
 
-  Status validate() const;                         // both > 0 and finite
+  Status validate() const;                         // all > 0 and finite
   double step_threshold(double frame_time) const;  // min(max_speed frame_time, max_step)
+  // max(min_pose_step, max_pose_speed frame_time)
+  double pose_step_threshold(double frame_time) const;
 };
+
+// Each joint's turn in a pose step counts up to this much (rad).
+inline constexpr double kPoseStepJointClamp = 1.0;
+// The pose step rule applies to clips with at least this many (not skipped) joints.
+inline constexpr int kPoseStepMinJoints = 10;
 
 // One impossible step: frame t -> t + 1, at its fastest joint.
 struct ImpossibleStep {
   int frame = 0;
   int joint = 0;
-  double angle = 0;  // rad
+  double angle = 0;      // rad, of that joint
+  double pose_step = 0;  // rad, the mean over joints
 };
 
 // Frames [begin, end) of a clip between impossible steps.
@@ -52,9 +76,14 @@ std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double
 // none for an empty clip).
 std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps);
 
-// Frames [begin, end) between steps that no joint can make (split_segments above), over the
-// joints that `skip` (empty, or one entry per joint) does not mark: flipping joints make such
-// steps all the time without being motion.
+// The impossible steps of `rotations` over the joints that `skip` (empty, or one entry per joint)
+// does not mark: flipping joints make such steps all the time without being motion.
+std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
+                                                  const MotionSplitParams& params,
+                                                  std::span<const std::uint8_t> skip);
+
+// Frames [begin, end) between impossible steps (default params) over the joints that `skip`
+// does not mark.
 std::vector<Segment> motion_segments(RotationView rotations, double frame_time,
                                      std::span<const std::uint8_t> skip);
 

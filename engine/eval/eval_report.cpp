@@ -292,6 +292,8 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
   j["guard"] = config.guard;  // auto's runs end with clean's guard (engine/clip/motion_guard.hpp)
   j["split_max_speed_rad_s"] = config.split.max_speed;
   j["split_max_step_rad"] = config.split.max_step;
+  j["split_min_pose_step_rad"] = config.split.min_pose_step;
+  j["split_max_pose_speed_rad_s"] = config.split.max_pose_speed;
   j["timing"] = {{"prepare_seconds", r.prepare_seconds},
                  {"filter_seconds", r.filter_seconds},
                  {"tasks", r.tasks}};

@@ -1,6 +1,6 @@
-// `mocap-clean eval` and its parts: the report end to end on two short synthetic clips, the
-// impossible-step split (kernels/motion_split.hpp) on synthetic and real clips, foot skating,
-// end effectors and units, the grid and noise specs.
+// `mocap-clean eval` and its parts: the report end to end on two short synthetic clips, foot
+// skating, end effectors and units, the grid and noise specs. The impossible-step split it uses
+// is tested in tests/kernels/motion_split_test.cpp.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -343,90 +343,6 @@ TEST(EvalNoise, SeedsDependOnTheClipAndConditionOnly) {
   c.sigma = 0.03;
   EXPECT_EQ(make_noisy(clip, c, 5), make_noisy(clip, c, 5));
   EXPECT_NE(make_noisy(clip, c, 5), make_noisy(clip, c, 6));
-}
-
-// A smooth random motion with one joint turned by `jump` rad between frames 49 and 50.
-std::vector<float> motion_with_jump(double jump, int joint) {
-  std::mt19937_64 rng(5);
-  std::vector<float> m = test::random_motion(rng, 100, 6, 0.5);
-  const Quat turn = exp(Vec3{0, jump, 0});
-  for (int t = 50; t < 100; ++t) {
-    float* q = &m[(std::size_t(t) * 6 + std::size_t(joint)) * 4];
-    store_quat(load_quat(q) * turn, q);
-  }
-  make_hemisphere_continuous({m.data(), 100, 6});
-  return m;
-}
-
-TEST(MotionSplit, FindsASyntheticTPoseJumpAndSplitsThere) {
-  const std::vector<float> m = motion_with_jump(120 * kPi / 180, 3);
-  const auto steps = find_impossible_steps({m.data(), 100, 6}, 1.0 / 120, MotionSplitParams{});
-  ASSERT_EQ(steps.size(), 1u);
-  EXPECT_EQ(steps[0].frame, 49);
-  EXPECT_EQ(steps[0].joint, 3);
-  EXPECT_NEAR(steps[0].angle, 120 * kPi / 180, 0.2);  // plus the motion's own step
-  const auto segments = split_segments(100, steps);
-  ASSERT_EQ(segments.size(), 2u);
-  EXPECT_EQ(segments[0].begin, 0);
-  EXPECT_EQ(segments[0].end, 50);
-  EXPECT_EQ(segments[1].begin, 50);
-  EXPECT_EQ(segments[1].end, 100);
-}
-
-TEST(MotionSplit, FastButPossibleMotionIsNotCut) {
-  // 0.83 rad per frame at 120 fps (100 rad/s) on top of the random motion: fast, not impossible.
-  const std::vector<float> m = motion_with_jump(0.83, 2);
-  EXPECT_TRUE(find_impossible_steps({m.data(), 100, 6}, 1.0 / 120, MotionSplitParams{}).empty());
-  // The same step is impossible at 30 fps only if it exceeds max_step: it does not.
-  EXPECT_TRUE(find_impossible_steps({m.data(), 100, 6}, 1.0 / 30, MotionSplitParams{}).empty());
-  EXPECT_DOUBLE_EQ(MotionSplitParams{}.step_threshold(1.0 / 120), 1.25);
-  EXPECT_DOUBLE_EQ(MotionSplitParams{}.step_threshold(1.0 / 30), 2.0);
-  EXPECT_EQ(split_segments(0, {}).size(), 0u);
-  EXPECT_FALSE((MotionSplitParams{-1, 2}.validate().ok()));
-}
-
-// An Euler channel wrapping from 179 to -179 degrees is a 2-degree step, not a jump: the reader
-// converts to quaternions and makes them hemisphere-continuous.
-TEST(MotionSplit, EulerWrapAroundsAreNotSteps) {
-  const std::string bvh =
-      "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n"
-      "  CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
-      "  JOINT Arm\n  {\n    OFFSET 1 0 0\n    CHANNELS 3 Zrotation Yrotation Xrotation\n"
-      "    End Site\n    {\n      OFFSET 1 0 0\n    }\n  }\n}\nMOTION\nFrames: 4\n"
-      "Frame Time: 0.0083333\n"
-      "0 0 0 178 10 0 -179 20 5\n0 0 0 179 10 0 179 20 5\n0 0 0 -179 10 0 -178 20 5\n"
-      "0 0 0 -178 10 0 178 20 5\n";
-  const io::BvhReadResult r = io::parse_bvh(bvh, "wrap.bvh");
-  ASSERT_TRUE(r.clip) << r.error->what();
-  const RotationView v = r.clip->rotation_view();
-  for (int t = 0; t + 1 < 4; ++t)
-    for (int j = 0; j < 2; ++j)
-      EXPECT_LT(geodesic(load_quat(v.at(t, j)), load_quat(v.at(t + 1, j))), 0.08) << t << " " << j;
-  EXPECT_TRUE(find_impossible_steps(v, r.clip->frame_time, MotionSplitParams{}).empty());
-}
-
-// The CMU "Motionbuilder-friendly" clips start with a synthetic T-pose: exactly one cut, after
-// frame 0, in every clip but one. 06_14's LThumb (a joint CMU did not capture) flips by pi at
-// gimbal lock 16 times; those are the only other cuts (README "eval").
-TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrame) {
-  MOCAP_REQUIRE_SHARED_CLIPS();
-  int exactly_one = 0;
-  for (const fs::path& file : test::shared_bvh_files()) {
-    const io::BvhReadResult r = io::read_bvh(file);
-    ASSERT_TRUE(r.clip) << file;
-    const auto steps =
-        find_impossible_steps(r.clip->rotation_view(), r.clip->frame_time, MotionSplitParams{});
-    ASSERT_FALSE(steps.empty()) << file;
-    EXPECT_EQ(steps[0].frame, 0) << file;
-    EXPECT_GT(steps[0].angle, 1.4) << file;
-    exactly_one += steps.size() == 1 ? 1 : 0;
-    for (std::size_t i = 1; i < steps.size(); ++i) {
-      EXPECT_EQ(r.clip->skeleton->joint_names[std::size_t(steps[i].joint)], "LThumb")
-          << file << " frame " << steps[i].frame;
-      EXPECT_GT(steps[i].angle, 3.0) << file << " frame " << steps[i].frame;
-    }
-  }
-  EXPECT_GE(exactly_one, int(test::shared_bvh_files().size()) - 1);
 }
 
 TEST(FootSkating, CountsOnlyLowFastHorizontalSteps) {
