@@ -178,11 +178,20 @@ int run_cli(int argc, char** argv) {
       ->transform(kAngle)
       ->check(kNonNegative)
       ->capture_default_str();
+  noise_cmd
+      ->add_option("--position-sigma", noise.position_sigma,
+                   "also jitter every position channel: per-axis standard deviation as a fraction "
+                   "of each clip's body height (0.004: 7 mm on a 1.7 m body, a plausible solver "
+                   "error; eval's +pos:F)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   noise_cmd->add_option("--seed", noise.seed, "the same seed and build give the same noise")
       ->capture_default_str();
   add_run_options(*noise_cmd, noise.run);
-  noise_cmd->footer(examples({"mocap-clean noise lib.h5 -o noisy.h5 --sigma 0.03 --seed 7",
-                              "mocap-clean noise lib.h5 -o pops.h5 --model impulse --rate 0.01"}));
+  noise_cmd->footer(
+      examples({"mocap-clean noise lib.h5 -o noisy.h5 --sigma 0.03 --seed 7",
+                "mocap-clean noise lib.h5 -o solve.h5 --sigma 0.02 --position-sigma 0.004",
+                "mocap-clean noise lib.h5 -o pops.h5 --model impulse --rate 0.01"}));
 
   JoinCommand join;
   CLI::App* join_cmd =

@@ -14,6 +14,7 @@
 #include "app/run_in_process.hpp"
 #include "core/version.hpp"
 #include "engine/clip/clip_conditioning.hpp"
+#include "engine/clip/filter_settings.hpp"
 #include "engine/library/shard_plan.hpp"
 #include "engine/run/job.hpp"
 #include "io/clip_validation.hpp"
@@ -326,6 +327,8 @@ nlohmann::json noise_parameters(const NoiseCommand& command) {
     parameters["min_angle"] = command.min_angle;
     parameters["max_angle"] = command.max_angle;
   }
+  if (command.position_sigma > 0)
+    parameters["position_sigma_body_heights"] = command.position_sigma;
   return parameters;
 }
 
@@ -354,6 +357,12 @@ int run_noise(const NoiseCommand& command) {
     } else {
       add_noise(ImpulseNoise{command.rate, command.min_angle, command.max_angle, seed},
                 clip.rotation_span());
+    }
+    if (command.position_sigma > 0) {
+      // Its own stream (as eval's +pos:F): the position draws do not repeat the rotation's.
+      const double sigma = command.position_sigma * body_height(*clip.skeleton);
+      add_noise(PositionNoise{sigma, seed ^ 0x5bd1e995u}, clip.translation_span(),
+                clip.skeleton->translated_mask());
     }
     return {};
   };

@@ -72,6 +72,7 @@ struct NoiseCommand {
   LibraryOutput output;
   std::string model = "gaussian";
   double sigma = 0.03, rate = 0.01, min_angle = 0.3, max_angle = 1.0;
+  double position_sigma = 0;  // fraction of each clip's body height; 0: positions untouched
   unsigned long long seed = 1;
   RunOptions run;
 };

@@ -13,6 +13,7 @@
 #include <map>
 #include <thread>
 
+#include "engine/clip/filter_settings.hpp"
 #include "io/library_reader.hpp"
 #include "io/library_writer.hpp"
 #include "tests/test_support.hpp"
@@ -138,6 +139,51 @@ TEST_F(EngineTest, OutputIsBitIdenticalForAnyThreadCountAndShardSize) {
       expect_identical_libraries(expected, read_library(out), method + " " + variant);
     }
   }
+}
+
+// noise --position-sigma F: per-axis gaussian jitter of F body heights on the joints with
+// position channels only, drawn apart from the rotations' (which stay what --sigma alone gives).
+TEST_F(EngineTest, NoiseJittersThePositionChannelsInBodyHeights) {
+  const std::string rotations_only = (dir_ / "r.h5").string(), both = (dir_ / "rp.h5").string();
+  const std::string base = "noise '" + lib() + "' --sigma 0.02 --seed 3 -o '";
+  ASSERT_EQ(test::run_cli(base + rotations_only + "'").exit_code, 0);
+  const auto r = test::run_cli(base + both + "' --position-sigma 0.01");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto plain = read_library(rotations_only), jittered = read_library(both);
+  ASSERT_EQ(plain.size(), library_.size());
+  ASSERT_EQ(jittered.size(), library_.size());
+  double sum = 0, sum2 = 0;
+  int n = 0;
+  for (const auto& [name, clean] : library_) {
+    const Clip& a = plain.at(name);
+    const Clip& b = jittered.at(name);
+    EXPECT_EQ(a.rotations, b.rotations) << name;
+    EXPECT_EQ(a.translations, clean.translations) << name;
+    const double sigma = 0.01 * engine::body_height(*clean.skeleton);
+    ASSERT_GT(sigma, 0);
+    for (int t = 0; t < clean.frames; ++t)
+      for (int j = 0; j < clean.joints(); ++j)
+        for (int c = 0; c < 3; ++c) {
+          const std::size_t i =
+              (std::size_t(t) * std::size_t(clean.joints()) + std::size_t(j)) * 3 + std::size_t(c);
+          const double d = double(b.translations[i]) - double(clean.translations[i]);
+          if (!clean.skeleton->has_translation(j)) {
+            EXPECT_EQ(d, 0.0) << name << " joint " << j;
+            continue;
+          }
+          sum += d / sigma;
+          sum2 += d * d / (sigma * sigma);
+          ++n;
+        }
+  }
+  ASSERT_GT(n, 3000);
+  EXPECT_NEAR(sum / n, 0.0, 0.1);               // mean 0
+  EXPECT_NEAR(std::sqrt(sum2 / n), 1.0, 0.05);  // std = F body heights
+  // Out of range is a usage error.
+  EXPECT_EQ(test::run_cli("noise '" + lib() + "' -o '" + (dir_ / "x.h5").string() +
+                          "' --position-sigma -1")
+                .exit_code,
+            2);
 }
 
 TEST_F(EngineTest, AClipWithNaNFailsAloneWithItsReason) {
