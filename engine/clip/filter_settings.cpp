@@ -85,6 +85,13 @@ BilateralParams automatic_smoothing(double sigma_hat, double frame_time) {
   return p;
 }
 
+double automatic_cutoff(double sigma_hat, double frame_time) {
+  const double rate = 1.0 / frame_time;
+  double cutoff = kAutoCutoffHz * std::pow(rate / 30.0, 1.0 / 6.0);
+  if (sigma_hat > 0) cutoff *= std::pow(kAutoCutoffSigma / sigma_hat, 1.0 / 6.0);
+  return std::clamp(cutoff, kAutoCutoffMinHz, kAutoCutoffMaxNyquist * rate / 2);
+}
+
 bool has_noisy_positions(const TranslationNoise& noise, double body_height) {
   return body_height > 0 && noise.sigma > kNoisyPositions * body_height;
 }
@@ -93,13 +100,13 @@ FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat
                                 bool noisy_positions, double frame_time) {
   FilterSettings s = settings;
   if (noisy_positions) {
-    s.method = Method::bof;
-    BilateralParams& b = s.edit<BilateralParams>();
-    b = BilateralParams{};
-    b.boundary = settings.param<BilateralParams>().boundary;
-    b.sigma_g = kAutoSmoothSigmaGFactor * sigma_hat;
-    b.sigma_t = 0;  // automatic_bilateral
-    b.iterations = std::clamp(int(std::ceil(5.0 / (120.0 * frame_time) - 1e-9)), 2, 5);
+    s.method = Method::butterworth;
+    LinearParams& l = s.edit<LinearParams>();
+    l = LinearParams{};
+    l.kind = LinearKind::butterworth;
+    l.boundary = settings.param<BilateralParams>().boundary;
+    l.order = kAutoButterworthOrder;
+    l.cutoff = automatic_cutoff(sigma_hat, frame_time);
   } else if (sigma_hat < kAutoCleanBelow) {
     s.method = Method::nlpm;
     const NlpmParams asked = settings.param<NlpmParams>();

@@ -208,9 +208,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 //                                 range = max(kNlpmAutoRangeFactor sigma_hat, kAutoNlpmMinRange)
 //   otherwise:                    bof, automatic_smoothing (iterations and widths from sigma_hat
 //                                 and the frame rate)
-//   noisy positions:              bof, sigma_g = kAutoSmoothSigmaGFactor sigma_hat, sigma_t as
-//                                 automatic_bilateral, iterations ceil(5 fps / 120) in [2, 5]:
-//                                 whatever sigma_hat
+//   noisy positions:              butterworth of kAutoButterworthOrder, cut-off automatic_cutoff
+//                                 (from sigma_hat and the frame rate), translations too
 // Measured with `eval` on ../shared/data/bvh (9 CMU clips, gaussian 0.008-0.24 rad, 120 fps and
 // --frame-step 4; grid over bof's iterations 1/2/3/5, sigma_g 2-8 sigma_hat, sigma_t factor
 // 7-40): the best bof has ONE iteration at 0.008 and 0.03 rad, 2-3 at 0.12, 3-5 at 0.24, and
@@ -221,20 +220,29 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 inline constexpr double kAutoCleanBelow = 0.004;
 // Noisy positions: the position channels' noise (estimate_translation_noise) above
 // kNoisyPositions of the body's height. Such a capture is a noisy solve, and what its viewer sees
-// is jitter: nlpm (and bof at 3 sigma_hat), the rotation-PSNR-best choices, staircase and left
-// 2.3-3.6x the clean capture's joint-position jitter at 0.02 rad + 0.4 % of the body; bof at 8
-// sigma_hat left 0.58x with a lower position error (6.66 against 7.76 mm), for 0.9 dB less
-// rotation PSNR (README, "Positions"). At 30 fps five iterations blur (jitter 2.02x, error
-// 12.36 mm); two left 1.40x and 11.07 mm. On rotation-only noise the PSNR-best branches stay. The
-// clean CMU clips measure 0.00004-0.00013 body heights at 120 fps, 0.0006 at most at 30 fps.
-// The factor: 8 left 1.73x the clean capture's jitter on the worst clip at 30 fps (5 clips over
-// 1.3x), 12 1.31x, 16 1.13x and 24 1.07x; 16 also lowered the position error (10.31 -> 10.12 mm
-// pooled) and at 120 fps the jitter (0.75x -> 0.65x worst clip, error unchanged), for 0.3 dB (120
-// fps) and 0.9 dB (30 fps) of rotation PSNR (eval, 9 shared clips, with feet locking). The
-// cost is one fast clip at 30 fps (02_03): its rotations end 2.76 dB below its noisy input's
-// while its joint positions gain (error 0.77x the noisy input's, jitter under 1.3x); a wider
-// translation Gaussian does not help (the jitter left is the rotations').
-inline constexpr double kAutoSmoothSigmaGFactor = 16.0;
+// is joint positions: their error and their jitter. nlpm (and bof at 3 sigma_hat), the
+// rotation-PSNR-best choices, staircase and left 2.3-3.6x the clean capture's joint-position
+// jitter at 0.02 rad + 0.4 % of the body (README, "Positions"). A Gaussian-like smoother (bof at
+// 16 sigma_hat, the rule before this one) must blur a fast clip to bring its jitter down: at 30
+// fps a run's (02_03) error stayed at 0.64x the noisy input's or above for every bof setting of
+// a grid of 9 (1-3 passes, sigma_t 0.75-1.25) and every Gaussian of 0.75-1.5 frames. A
+// Butterworth low-pass (zero-phase, order 4) keeps the motion's band and cuts the noise above it.
+// Calibrated with eval's grid on the 9 shared clips (0.005-0.03 rad + 0.004 body, at 120 fps and
+// --frame-step 4) for the worst clip's joint position error with its jitter under 1.3x the
+// capture's: the best cut-off falls as the noise rises, about as sigma_hat^(-1/6), and rises with
+// the frame rate; order 4 beat order 2 on the worst clip at every level. automatic_cutoff:
+//   kAutoCutoffHz (kAutoCutoffSigma / sigma_hat)^(1/6) (fps / 30)^(1/6)
+// within [kAutoCutoffMinHz, kAutoCutoffMaxNyquist x Nyquist]. (fps)^(1/12), the Wiener cut-off
+// of a spectrum falling as f^-12 under white noise, gave the same worst clip at 120 fps and
+// 0.4-0.6 dB less rotation PSNR.) README "Positions" has the before/after tables.
+// On rotation-only noise the PSNR-best branches stay. The clean CMU clips measure 0.00004-0.00013
+// body heights at 120 fps, 0.0006 at most at 30 fps.
+inline constexpr int kAutoButterworthOrder = 4;
+inline constexpr double kAutoCutoffHz = 4.0;
+inline constexpr double kAutoCutoffSigma = 0.02;
+inline constexpr double kAutoCutoffMinHz = 1.0;
+inline constexpr double kAutoCutoffMaxNyquist = 0.8;
+double automatic_cutoff(double sigma_hat, double frame_time);
 inline constexpr double kNoisyPositions = 0.0015;
 // Floors of auto's nlpm strength and range width. On a capture with no noise added (CMU clips:
 // sigma_hat 0.001-0.002 rad) h = 1.2 sigma_hat and a range of 5 sigma_hat are so selective that

@@ -405,9 +405,33 @@ TEST(Conditioning, AutoSmoothingIsMonotoneInTheNoiseAndTheFrameRate) {
       first = false;
     }
   }
-  // The noisy-positions branch ignores sigma_hat's size for its passes.
-  EXPECT_EQ(engine::choose_automatic(s, 0.01, true, 1.0 / 120).param<BilateralParams>().iterations,
-            engine::choose_automatic(s, 0.2, true, 1.0 / 120).param<BilateralParams>().iterations);
+}
+
+// The noisy-positions branch: an order-4 Butterworth whose cut-off falls as the noise rises and
+// rises with the frame rate, 4 Hz at 0.02 rad and 30 fps, always below the Nyquist frequency.
+TEST(AutomaticParameters, NoisyPositionsGetALowPassThatFollowsNoiseAndFrameRate) {
+  FilterSettings s;
+  s.method = Method::automatic;
+  const auto cutoff = [&](double sigma, double fps) {
+    const FilterSettings c = engine::choose_automatic(s, sigma, true, 1.0 / fps);
+    EXPECT_EQ(c.method, Method::butterworth);
+    EXPECT_EQ(c.param<LinearParams>().kind, LinearKind::butterworth);
+    EXPECT_EQ(c.param<LinearParams>().order, engine::kAutoButterworthOrder);
+    EXPECT_TRUE(c.filter_translations);
+    EXPECT_TRUE(c.validate().ok());
+    return c.param<LinearParams>().cutoff;
+  };
+  EXPECT_NEAR(cutoff(0.02, 30), 4.0, 1e-12);
+  double previous = 1e9;
+  for (double sigma : {0.005, 0.01, 0.02, 0.03, 0.12}) {
+    const double at30 = cutoff(sigma, 30), at120 = cutoff(sigma, 120);
+    EXPECT_LT(at30, previous) << sigma;
+    EXPECT_GT(at120, at30) << sigma;
+    previous = at30;
+  }
+  // Never at or past Nyquist, whatever the rate or the noise: 8 fps, noise next to nothing.
+  EXPECT_LE(cutoff(1e-9, 8), 0.8 * 4);
+  EXPECT_GE(cutoff(10, 120), engine::kAutoCutoffMinHz);
 }
 
 }  // namespace

@@ -263,7 +263,8 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
   const struct {
     double sigma, position;
     Method chosen;
-  } clips[] = {{0.001, 0, Method::nlpm}, {0.05, 0, Method::bof}, {0.02, 0.004, Method::bof}};
+  } clips[] = {
+      {0.001, 0, Method::nlpm}, {0.05, 0, Method::bof}, {0.02, 0.004, Method::butterworth}};
   int auto_smooth = 0;
   for (const auto& c : clips) {
     const Clip input = noisy_walk(c.sigma, c.position);
@@ -298,6 +299,10 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
       }
       if (s.method == Method::kalman) {
         EXPECT_EQ(used.at("lambda"), s.param<KalmanParams>().lambda);
+      }
+      if (s.method == Method::butterworth) {
+        EXPECT_EQ(used.at("order"), s.param<LinearParams>().order);
+        EXPECT_EQ(used.at("cutoff"), s.param<LinearParams>().cutoff);
       }
     }
   }

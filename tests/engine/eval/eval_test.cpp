@@ -307,6 +307,36 @@ TEST(EvalCommand, GuardKeepsCleanCapturesAndLeavesNoisyOnesToTheFilter) {
   EXPECT_GT(fell_back, 0) << "no clean clip needed the guard: the check would be vacuous";
 }
 
+// Issue 12's targets for a noisy solve (0.02 rad + 0.004 body heights of position noise), through
+// clean's defaults (auto, pops, feet locked, guard) at 120 and 30 fps: on every shared clip the
+// joint position error <= 0.6x the noisy input's and the jitter <= 1.3x the clean capture's,
+// with auto's low-pass for noisy positions (choose_automatic) on every clip.
+TEST(EvalCommand, CleansDefaultsMeetThePositionTargetsOnANoisySolve) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  for (int step : {1, 4}) {
+    SCOPED_TRACE("frame step " + std::to_string(step));
+    test::TempDir out("eval-solve");
+    const auto r =
+        test::run_cli("eval '" + test::shared_bvh_dir().string() + "' -o '" + out.path().string() +
+                      "' --noise gaussian:0.02+pos:0.004 --methods auto --pops on "
+                      "--feet lock --no-plots --frame-step " +
+                      std::to_string(step));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto report = nlohmann::json::parse(test::read_text(out.path() / "report.json"));
+    const auto& noisy = report["conditions"][0]["noisy_per_clip"];
+    const auto& clips = report["methods"][0]["automatic"]["results"][0]["clips"];
+    ASSERT_EQ(clips.size(), report["clips"].size());
+    for (std::size_t k = 0; k < clips.size(); ++k) {
+      const auto& c = clips[k];
+      EXPECT_LE(c["mpjpe_mm"].get<double>(), 0.6 * noisy[k]["mpjpe_mm"].get<double>()) << c["clip"];
+      EXPECT_LE(c["jitter_mm"].get<double>(),
+                1.3 * report["clips"][k]["clean_jitter_mm"].get<double>())
+          << c["clip"];
+      EXPECT_EQ(c["resolved"]["segments"].back()["method"], "butterworth") << c["clip"];
+    }
+  }
+}
+
 TEST(EvalSpec, GridsAreCartesianProductsAndAlternativesReplaceEachOther) {
   std::string error;
   const auto g1 = parse_grid_override("bof.sigma_g=0.1,0.2,0.4", &error);
