@@ -89,7 +89,8 @@ double automatic_cutoff(double sigma_hat, double frame_time) {
   const double rate = 1.0 / frame_time;
   double cutoff = kAutoCutoffHz * std::pow(rate / 30.0, 1.0 / 6.0);
   if (sigma_hat > 0) cutoff *= std::pow(kAutoCutoffSigma / sigma_hat, 1.0 / 6.0);
-  return std::clamp(cutoff, kAutoCutoffMinHz, kAutoCutoffMaxNyquist * rate / 2);
+  const double highest = kAutoCutoffMaxNyquist * rate / 2;  // below 2.5 fps, under the floor
+  return std::clamp(cutoff, std::min(kAutoCutoffMinHz, highest), highest);
 }
 
 bool has_noisy_positions(const TranslationNoise& noise, double body_height) {

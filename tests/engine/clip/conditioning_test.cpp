@@ -431,6 +431,7 @@ TEST(AutomaticParameters, NoisyPositionsGetALowPassThatFollowsNoiseAndFrameRate)
   }
   // Never at or past Nyquist, whatever the rate or the noise: 8 fps, noise next to nothing.
   EXPECT_LE(cutoff(1e-9, 8), 0.8 * 4);
+  EXPECT_LE(cutoff(0.02, 1), 0.8 * 0.5);  // 1 fps: under the 1 Hz floor, still below Nyquist
   EXPECT_GE(cutoff(10, 120), engine::kAutoCutoffMinHz);
 }
 
