@@ -160,7 +160,9 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
          "bof: sigma_g|sigma_g_factor (+sigma_g_floor), sigma_t|sigma_t_factor, iterations;\n"
          "nlpm: h|h_factor, K, P; nlpm-robust: h|h_factor, range_factor, K, P;\n"
          "gaussian: sigma_t; butterworth: cutoff, order;\n"
-         "moving-mean: passes; kalman: lambda|lambda_scale (factors: x sigma_hat)")
+         "moving-mean: passes; kalman: lambda|lambda_scale\n"
+         "(factors: x sigma_hat; kalman's lambda_scale is c in c (120 frame_time)^2.5 / "
+         "sigma_hat^3, automatic 1.1e-6)")
       ->group("Evaluation");
   cmd->add_option("--seed", command.seed, "noise seed (per clip and condition from it)")
       ->capture_default_str()
