@@ -15,19 +15,17 @@
 // max_speed * frame_time would exceed pi and nothing could ever be flagged.
 // Sign flips of the quaternion (q vs -q) are not steps: the geodesic angle ignores them.
 //
-// Below about 60 fps the per-joint rule alone misses the T-pose: at 30 fps (every 4th frame) its
-// worst joint turns 1.49 to 3.12 rad, against real steps of up to 1.20 rad (05_02's toe) and
-// 06_14's flipping thumb at pi. What sets it apart is that the whole body jumps at once. So a
-// step is also impossible when the pose step, the mean over joints of min(angle, 1 rad) (the
-// clamp keeps one flipping joint from counting as a whole body), exceeds
+// Below about 60 fps the per-joint rule alone misses the T-pose: its worst joint turns less than
+// max_step there, no more than a fast toe does. What sets it apart is that the whole body jumps
+// at once. So a step is also impossible when the pose step, the mean over joints of
+// min(angle, kPoseStepJointClamp) (the clamp keeps one flipping joint from counting as a whole
+// body), exceeds
 //     max(min_pose_step, max_pose_speed * frame_time)
-// Measured on the same clips (mean over 31 joints): the T-pose step is 0.283 to 0.412 rad at any
-// frame rate; real motion reaches at most 0.074 rad at 120 fps, 0.130 at 30 fps (3.9 rad/s),
-// 0.151 at 24 fps and 0.221 at 15 fps (3.3 rad/s). min_pose_step = 0.2 rad sits between the two
-// down to 24 fps; below, max_pose_speed = 4.5 rad/s raises it past real motion, and a T-pose may
-// then go unflagged rather than real motion being cut. The pose step needs a body: with fewer
-// than kPoseStepMinJoints joints counted, one limb swinging, or one joint popping by 1 rad in
-// a 4-joint clip, is a large share of the mean, so the rule is not applied.
+// min_pose_step lies between the T-pose's pose step and real motion's down to 24 fps; below,
+// max_pose_speed raises the threshold past real motion, and a T-pose may then go unflagged
+// rather than real motion being cut (README "eval" has the measurements). The pose step needs a
+// body: with fewer than kPoseStepMinJoints joints counted, one limb swinging or one joint popping
+// is a large share of the mean, so the rule is not applied.
 #include <cstdint>
 #include <span>
 #include <vector>

@@ -220,23 +220,16 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 inline constexpr double kAutoCleanBelow = 0.004;
 // Noisy positions: the position channels' noise (estimate_translation_noise) above
 // kNoisyPositions of the body's height. Such a capture is a noisy solve, and what its viewer sees
-// is joint positions: their error and their jitter. nlpm (and bof at 3 sigma_hat), the
-// rotation-PSNR-best choices, staircase and left 2.3-3.6x the clean capture's joint-position
-// jitter at 0.02 rad + 0.4 % of the body (README, "Positions"). A Gaussian-like smoother (bof at
-// 16 sigma_hat, the rule before this one) must blur a fast clip to bring its jitter down: at 30
-// fps a run's (02_03) error stayed at 0.64x the noisy input's or above for every bof setting of
-// a grid of 9 (1-3 passes, sigma_t 0.75-1.25) and every Gaussian of 0.75-1.5 frames. A
-// Butterworth low-pass (zero-phase, order 4) keeps the motion's band and cuts the noise above it.
-// Calibrated with eval's grid on the 9 shared clips (0.005-0.03 rad + 0.004 body, at 120 fps and
-// --frame-step 4) for the worst clip's joint position error with its jitter under 1.3x the
-// capture's: the best cut-off falls as the noise rises, about as sigma_hat^(-1/6), and rises with
-// the frame rate; order 4 beat order 2 on the worst clip at every level. automatic_cutoff:
+// is joint positions, their error and their jitter, so auto chooses there on positions: the
+// rotation-PSNR-best choices staircase and leave jitter, and a Gaussian-like smoother must blur a
+// fast clip's motion before it brings the noise's jitter down. A Butterworth low-pass (zero-phase,
+// order kAutoButterworthOrder, rotations and translations alike) keeps the motion's band and cuts
+// the noise above it; its cut-off, automatic_cutoff,
 //   kAutoCutoffHz (kAutoCutoffSigma / sigma_hat)^(1/6) (fps / 30)^(1/6)
-// within [kAutoCutoffMinHz, kAutoCutoffMaxNyquist x Nyquist]. (fps)^(1/12), the Wiener cut-off
-// of a spectrum falling as f^-12 under white noise, gave the same worst clip at 120 fps and
-// 0.4-0.6 dB less rotation PSNR.) README "Positions" has the before/after tables.
-// On rotation-only noise the PSNR-best branches stay. The clean CMU clips measure 0.00004-0.00013
-// body heights at 120 fps, 0.0006 at most at 30 fps.
+// within [kAutoCutoffMinHz, kAutoCutoffMaxNyquist x Nyquist], falls as the noise rises and rises
+// with the frame rate as the worst clip's joint position error asked in the calibration (README
+// "Positions": eval's grid, the measurements, what it costs the rotations). On rotation-only
+// noise the PSNR-best branches stay.
 inline constexpr int kAutoButterworthOrder = 4;
 inline constexpr double kAutoCutoffHz = 4.0;
 inline constexpr double kAutoCutoffSigma = 0.02;

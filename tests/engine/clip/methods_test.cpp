@@ -209,7 +209,7 @@ bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
 // Each eval method without a grid point runs what `clean --method NAME` runs with its automatic
 // parameters, and at a grid point what the same parameters given on the command line run: the
 // same resolved parameters, the same bits. Three clips reach auto's three branches (nlpm below
-// kAutoCleanBelow, bof from automatic_smoothing, the smooth bof of noisy positions).
+// kAutoCleanBelow, bof from automatic_smoothing, the low-pass of noisy positions).
 TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
   struct Case {
     const char* eval_method;
