@@ -40,25 +40,6 @@ bool is_library_file(const std::string& argument) {
 }
 
 // Reads every clip of `source`, naming failures on stderr.
-// Every step-th frame of `clip` (frame time x step): the same motion at a lower frame rate.
-Clip decimate(Clip clip, int step) {
-  if (step <= 1) return clip;
-  const std::size_t J = std::size_t(clip.joints());
-  const int frames = (clip.frames + step - 1) / step;
-  for (int t = 0; t < frames; ++t) {
-    const std::size_t from = std::size_t(t) * std::size_t(step) * J, to = std::size_t(t) * J;
-    std::copy_n(clip.rotations.begin() + std::ptrdiff_t(4 * from), 4 * J,
-                clip.rotations.begin() + std::ptrdiff_t(4 * to));
-    std::copy_n(clip.translations.begin() + std::ptrdiff_t(3 * from), 3 * J,
-                clip.translations.begin() + std::ptrdiff_t(3 * to));
-  }
-  clip.frames = frames;
-  clip.frame_time *= step;
-  clip.rotations.resize(std::size_t(frames) * J * 4);
-  clip.translations.resize(std::size_t(frames) * J * 3);
-  return clip;
-}
-
 void read_all(ClipSource& source, const EvalConfig& config, int frame_step,
               std::vector<EvalClip>& clips, std::size_t* failed) {
   for (std::size_t i = 0; i < source.count(); ++i) {

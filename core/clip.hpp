@@ -1,5 +1,7 @@
 #pragma once
 // One motion clip as the engine holds it: skeleton, frame time and the two tensors.
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -58,6 +60,33 @@ inline Clip with_motion(const Clip& like, std::vector<float> rotations,
 }
 inline Clip motion_copy(const Clip& clip) {
   return with_motion(clip, clip.rotations, clip.translations);
+}
+
+// Every step-th frame of `clip` (frame time x step): the same motion at a lower frame rate, as
+// eval's --frame-step. The source's Euler values follow when the clip holds them; the provenance
+// is dropped, since its frame numbers are the full clip's.
+inline Clip decimate(Clip clip, int step) {
+  if (step <= 1) return clip;
+  const std::size_t J = std::size_t(clip.joints());
+  const int frames = (clip.frames + step - 1) / step;
+  const bool angles = !clip.source_angles.empty();
+  for (int t = 0; t < frames; ++t) {
+    const std::size_t from = std::size_t(t) * std::size_t(step) * J, to = std::size_t(t) * J;
+    std::copy_n(clip.rotations.begin() + std::ptrdiff_t(4 * from), 4 * J,
+                clip.rotations.begin() + std::ptrdiff_t(4 * to));
+    std::copy_n(clip.translations.begin() + std::ptrdiff_t(3 * from), 3 * J,
+                clip.translations.begin() + std::ptrdiff_t(3 * to));
+    if (angles)
+      std::copy_n(clip.source_angles.begin() + std::ptrdiff_t(3 * from), 3 * J,
+                  clip.source_angles.begin() + std::ptrdiff_t(3 * to));
+  }
+  clip.frames = frames;
+  clip.frame_time *= step;
+  clip.rotations.resize(std::size_t(frames) * J * 4);
+  clip.translations.resize(std::size_t(frames) * J * 3);
+  if (angles) clip.source_angles.resize(std::size_t(frames) * J * 3);
+  clip.provenance = {};
+  return clip;
 }
 
 }  // namespace mocap

@@ -79,22 +79,6 @@ std::vector<Clip> clean(const std::vector<Clip>& clips, const std::string& feet)
   return sink.clips;
 }
 
-Clip decimate(const Clip& clip, int step) {
-  Clip out = clip;
-  const int J = clip.joints();
-  out.frames = (clip.frames + step - 1) / step;
-  out.frame_time = clip.frame_time * step;
-  out.rotations.resize(std::size_t(out.frames) * std::size_t(J) * 4);
-  out.translations.resize(std::size_t(out.frames) * std::size_t(J) * 3);
-  for (int t = 0; t < out.frames; ++t) {
-    std::copy_n(&clip.rotations[std::size_t(t * step) * std::size_t(J) * 4], J * 4,
-                &out.rotations[std::size_t(t) * std::size_t(J) * 4]);
-    std::copy_n(&clip.translations[std::size_t(t * step) * std::size_t(J) * 3], J * 3,
-                &out.translations[std::size_t(t) * std::size_t(J) * 3]);
-  }
-  return out;
-}
-
 double body_height(const Skeleton& sk) {
   std::vector<std::pair<int, Vec3>> sites;
   for (int j = 0; j < sk.joint_count(); ++j)

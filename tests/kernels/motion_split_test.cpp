@@ -99,17 +99,6 @@ TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrame) {
   EXPECT_GE(exactly_one, int(test::shared_bvh_files().size()) - 1);
 }
 
-// Every 4th frame of `clip`'s rotations: the clip at a quarter of its rate, as eval --frame-step 4.
-std::vector<float> every_fourth_frame(const Clip& clip, int* frames) {
-  std::vector<float> out;
-  const std::size_t row = std::size_t(clip.joints()) * 4;
-  *frames = 0;
-  for (int t = 0; t < clip.frames; t += 4, ++*frames)
-    out.insert(out.end(), clip.rotations.begin() + std::ptrdiff_t(std::size_t(t) * row),
-               clip.rotations.begin() + std::ptrdiff_t(std::size_t(t + 1) * row));
-  return out;
-}
-
 // At 30 fps the T-pose's worst joint turns less than max_step on 7 of the 9 clips: the pose step
 // (the whole body jumping) cuts it, and nothing else is cut but 06_14's flipping thumb.
 TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrameAtThirtyFps) {
@@ -119,11 +108,9 @@ TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrameAtThirtyFps) {
   for (const fs::path& file : test::shared_bvh_files()) {
     const io::BvhReadResult r = io::read_bvh(file);
     ASSERT_TRUE(r.clip) << file;
-    int frames = 0;
-    const std::vector<float> quarter = every_fourth_frame(*r.clip, &frames);
-    const double frame_time = r.clip->frame_time * 4;
-    const auto steps =
-        find_impossible_steps({quarter.data(), frames, r.clip->joints()}, frame_time, params);
+    const Clip quarter = decimate(*r.clip, 4);  // 30 fps, as eval --frame-step 4
+    const double frame_time = quarter.frame_time;
+    const auto steps = find_impossible_steps(quarter.rotation_view(), frame_time, params);
     ASSERT_FALSE(steps.empty()) << file;
     EXPECT_EQ(steps[0].frame, 0) << file;
     EXPECT_GT(steps[0].pose_step, params.pose_step_threshold(frame_time)) << file;
