@@ -359,9 +359,8 @@ int run_noise(const NoiseCommand& command) {
                 clip.rotation_span());
     }
     if (command.position_sigma > 0) {
-      // Its own stream (as eval's +pos:F): the position draws do not repeat the rotation's.
       const double sigma = command.position_sigma * body_height(*clip.skeleton);
-      add_noise(PositionNoise{sigma, seed ^ 0x5bd1e995u}, clip.translation_span(),
+      add_noise(PositionNoise{sigma, position_noise_seed(seed)}, clip.translation_span(),
                 clip.skeleton->translated_mask());
     }
     return {};

@@ -29,11 +29,6 @@ double MotionSplitParams::pose_step_threshold(double frame_time) const {
 }
 
 std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
-                                                  const MotionSplitParams& params) {
-  return find_impossible_steps(rotations, frame_time, params, {});
-}
-
-std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
                                                   const MotionSplitParams& params,
                                                   std::span<const std::uint8_t> skip) {
   std::vector<ImpossibleStep> steps;

@@ -66,19 +66,16 @@ struct Segment {
   int frames() const { return end - begin; }
 };
 
-// The impossible steps of `rotations`, in frame order. Requires valid params and frame_time > 0.
-std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
-                                                  const MotionSplitParams& params);
-
 // The segments of [0, frames) cut after each step's frame (one segment when there is none;
 // none for an empty clip).
 std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps);
 
-// The impossible steps of `rotations` over the joints that `skip` (empty, or one entry per joint)
-// does not mark: flipping joints make such steps all the time without being motion.
+// The impossible steps of `rotations`, in frame order, over the joints that `skip` (empty, or
+// one entry per joint) does not mark: flipping joints make such steps all the time without being
+// motion. Requires valid params and frame_time > 0.
 std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
                                                   const MotionSplitParams& params,
-                                                  std::span<const std::uint8_t> skip);
+                                                  std::span<const std::uint8_t> skip = {});
 
 // Frames [begin, end) between impossible steps (default params) over the joints that `skip`
 // does not mark.

@@ -29,6 +29,11 @@ struct PositionNoise {
   std::uint64_t seed = 1;
   Status validate() const;  // sigma finite and >= 0
 };
+// The seed of a clip's position noise beside rotation noise of `seed` (noise --position-sigma,
+// eval's +pos:F): its own stream, so the position draws do not repeat the rotation's.
+inline std::uint64_t position_noise_seed(std::uint64_t seed) {
+  return seed ^ 0x5bd1e995u;
+}
 
 struct ImpulseNoise {
   double rate = 0.01;                       // probability per joint-sample

@@ -80,7 +80,7 @@ std::vector<float> make_noisy_translations(const Clip& clean, const NoiseConditi
                                            double body_height, std::uint64_t seed) {
   std::vector<float> translations = clean.translations;
   if (condition.position_sigma > 0) {
-    add_noise(PositionNoise{condition.position_sigma * body_height, seed ^ 0x5bd1e995u},
+    add_noise(PositionNoise{condition.position_sigma * body_height, position_noise_seed(seed)},
               {translations.data(), clean.frames, clean.joints()},
               clean.skeleton->translated_mask());
   }
