@@ -309,36 +309,46 @@ std::shared_ptr<const Skeleton> read_skeleton(hid_t file, const std::string& nam
   return skeleton;
 }
 
-// Why the LZ4 chunks of `dataset` must not reach the LZ4 plugin, or "". The plugin
-// (hdf5-filter-plugin) trusts a chunk's header: it allocates the size the header states and
-// decodes with LZ4_decompress_fast, which reads past the end of a damaged block. So each LZ4
-// chunk is first decoded by the store's own decoder (lz4_filter_decode: LZ4_decompress_safe,
-// every size checked), and must give exactly one chunk's bytes. check_storage() has bounded the
+// Why the chunks of `dataset` must not reach HDF5's filters, or "". libhdf5 1.10 copies a
+// chunk's decoded bytes into the dataset without comparing their count with the chunk's size,
+// and a chunk's filter mask (stored per chunk, in the index) may skip any filter: a chunk whose
+// mask skips the compression then "decodes" to its stored size, and the copy overflowed (a
+// fuzz finding: a mask of 0xfe on a 26-byte deflate chunk). The LZ4 plugin also trusts a
+// chunk's header and decodes with LZ4_decompress_fast, which reads past a damaged block. So
+// each chunk is run through the filters its mask leaves, in reverse, by the store's own
+// decoders (every size checked), and must give exactly one chunk's bytes; a filter they do not
+// know is refused, since what it would give cannot be checked. check_storage() has bounded the
 // chunk shape by the data and each stored chunk by the file.
-std::string check_lz4_chunks(hid_t dataset, const char* name, const std::vector<hsize_t>& dims) {
+std::string check_filtered_chunks(hid_t dataset, const char* name,
+                                  const std::vector<hsize_t>& dims) {
   const h5::PropertyList properties(H5Dget_create_plist(dataset));
   if (!properties) return h5::with_detail(std::string("cannot open its '") + name + "' dataset");
+  if (H5Pget_layout(properties.get()) != H5D_CHUNKED) return {};
   const int filters = H5Pget_nfilters(properties.get());
-  int lz4 = -1;
-  int checksum = -1;  // a Fletcher-32 after LZ4: its 4 bytes end the stored chunk
+  if (filters <= 0) return {};  // unfiltered chunks: check_storage() required their exact size
+  std::vector<H5Z_filter_t> ids;
   for (int i = 0; i < filters; ++i) {
     unsigned flags = 0;
     std::size_t values = 0;
     const H5Z_filter_t id = H5Pget_filter2(properties.get(), unsigned(i), &flags, &values, nullptr,
                                            0, nullptr, nullptr);
-    if (id == H5Z_filter_t(kLz4FilterId)) lz4 = i;
-    if (id == H5Z_FILTER_FLETCHER32 && lz4 >= 0) checksum = i;
+    if (id != H5Z_FILTER_SHUFFLE && id != H5Z_FILTER_DEFLATE && id != H5Z_FILTER_FLETCHER32 &&
+        id != H5Z_filter_t(kLz4FilterId))
+      return std::string("its '") + name + "' dataset is stored through HDF5 filter " +
+             std::to_string(id) +
+             ", which this reader does not decode (it reads shuffle, deflate, LZ4 and "
+             "Fletcher-32)";
+    ids.push_back(id);
   }
-  if (lz4 < 0 || H5Pget_layout(properties.get()) != H5D_CHUNKED) return {};
   const int rank = int(dims.size());
   std::vector<hsize_t> chunk(dims.size());
   const h5::Datatype type(H5Dget_type(dataset));
   if (H5Pget_chunk(properties.get(), rank, chunk.data()) != rank || !type)
     return h5::with_detail(std::string("cannot read the chunk shape of its '") + name +
                            "' dataset");
-  std::uint64_t chunk_bytes = H5Tget_size(type.get());
-  for (hsize_t c : chunk) chunk_bytes *= c;  // bounded by check_storage()
-  std::vector<std::uint8_t> stored, decoded;
+  std::size_t chunk_bytes = H5Tget_size(type.get());
+  for (hsize_t c : chunk) chunk_bytes *= std::size_t(c);  // bounded by check_storage()
+  std::vector<std::uint8_t> stored, decoded(chunk_bytes);
   std::string problem;
   h5::for_each_chunk(dims, chunk, [&](const hsize_t* offset) {
     const std::string where =
@@ -354,20 +364,34 @@ std::string check_lz4_chunks(hid_t dataset, const char* name, const std::vector<
       problem = h5::with_detail("cannot read " + where);
       return false;
     }
-    if (mask & (1u << unsigned(lz4))) return true;  // stored without LZ4: the plugin skips it
     std::span<const std::uint8_t> bytes(stored);
-    if (checksum >= 0 && !(mask & (1u << unsigned(checksum))))
-      bytes = bytes.first(bytes.size() >= 4 ? bytes.size() - 4 : 0);
-    std::uint64_t claimed = 0;
-    for (std::size_t i = 0; i < 8 && bytes.size() >= 8; ++i) claimed = claimed << 8 | bytes[i];
-    decoded.clear();
-    if (bytes.size() < 12 || claimed != chunk_bytes || !lz4_filter_decode(bytes, decoded) ||
-        decoded.size() != chunk_bytes) {
-      problem = where + " is not a valid LZ4 chunk of " + std::to_string(chunk_bytes) +
-                " bytes (the file is damaged)";
-      return false;
+    bool expanded = false;  // whether `bytes` now are the decoded chunk
+    for (int i = filters - 1; i >= 0 && problem.empty(); --i) {
+      if (mask & (1u << unsigned(i))) continue;  // skipped when this chunk was written
+      switch (ids[std::size_t(i)]) {
+        case H5Z_FILTER_FLETCHER32:
+          if (bytes.size() < 4)
+            problem = where + " is shorter than its Fletcher-32 checksum";
+          else
+            bytes = bytes.first(bytes.size() - 4);
+          break;
+        case H5Z_FILTER_SHUFFLE:  // keeps the size
+          break;
+        default:  // a compression: one chunk's bytes, from a stream that is whole
+          if (expanded ||
+              !(ids[std::size_t(i)] == H5Z_FILTER_DEFLATE ? deflate_decode_into(bytes, decoded)
+                                                          : lz4_filter_decode_into(bytes, decoded)))
+            problem = where + " is not a valid " +
+                      (ids[std::size_t(i)] == H5Z_FILTER_DEFLATE ? "deflate" : "LZ4") +
+                      " chunk of " + std::to_string(chunk_bytes) + " bytes (the file is damaged)";
+          bytes = decoded;
+          expanded = true;
+      }
     }
-    return true;
+    if (problem.empty() && bytes.size() != chunk_bytes)
+      problem = where + " decodes to " + std::to_string(bytes.size()) + " bytes, not the " +
+                std::to_string(chunk_bytes) + " of a chunk (the file is damaged)";
+    return problem.empty();
   });
   return problem;
 }
@@ -378,7 +402,7 @@ std::string read_floats(hid_t clip, const char* name, const std::vector<hsize_t>
                         std::vector<float>& out) {
   const h5::Dataset dataset(H5Dopen2(clip, name, H5P_DEFAULT));
   if (dataset && !out.empty())
-    if (std::string problem = check_lz4_chunks(dataset.get(), name, dims); !problem.empty())
+    if (std::string problem = check_filtered_chunks(dataset.get(), name, dims); !problem.empty())
       return problem;
   if (dataset && (out.empty() || H5Dread(dataset.get(), H5T_NATIVE_FLOAT, H5S_ALL, H5S_ALL,
                                          H5P_DEFAULT, out.data()) >= 0))

@@ -12,6 +12,7 @@
 #include <iterator>
 #include <vector>
 
+#include "io/chunk_codec.hpp"
 #include "io/library_store.hpp"
 #include "tests/test_support.hpp"
 
@@ -230,6 +231,65 @@ TEST(HostileChunks, AnLz4ChunkThatLiesIsRefusedBeforeThePluginDecodesIt) {
     const std::string error = read_error(lib);
     EXPECT_NE(error.find("'rotations' chunk at frame 0 is not a valid LZ4 chunk of 96 bytes"),
               std::string::npos)
+        << error;
+  }
+}
+
+// A chunk's filter mask is stored per chunk and may skip any filter; libhdf5 1.10 copies what
+// the filters left into the dataset without comparing its size with a chunk's (a heap-buffer-
+// overflow in H5VM_memcpyvv, library_image_fuzz: a mask of 0xfe on a 26-byte deflate chunk, so
+// only the shuffle ran). The reader runs each chunk through the filters its mask leaves first.
+TEST(HostileChunks, AChunkWhoseMaskSkipsItsCompressionMustStillHoldAWholeChunk) {
+  test::TempDir dir("hostile-chunks");
+  const fs::path lib = dir / "lib.h5";
+  const Clip clip = make_clip();
+  const auto* raw = reinterpret_cast<const std::uint8_t*>(clip.rotations.data());
+  const std::size_t raw_bytes = clip.rotations.size() * sizeof(float);  // one chunk, 96 bytes
+  // Filters [shuffle, deflate, Fletcher-32]: a chunk written with deflate skipped (mask bit 1),
+  // as HDF5 does when deflate saves nothing, holds the shuffled chunk and its checksum.
+  std::vector<std::uint8_t> shuffled(raw_bytes);
+  shuffle_bytes({raw, raw_bytes}, sizeof(float), shuffled);
+  std::vector<std::uint8_t> whole = shuffled;
+  const std::uint32_t sum = fletcher32(whole);
+  for (int i = 0; i < 4; ++i) whole.push_back(std::uint8_t(sum >> (8 * i)));
+  // Then the fuzzed case, a short chunk with every filter but the shuffle skipped; and a
+  // deflate stream of half a chunk under the checksum.
+  const std::vector<std::uint8_t> short_chunk(26, 7);
+  std::vector<std::uint8_t> half_stream;
+  ASSERT_TRUE(deflate_encode({raw, raw_bytes / 2}, 4, half_stream));
+  const std::uint32_t half_sum = fletcher32(half_stream);
+  for (int i = 0; i < 4; ++i) half_stream.push_back(std::uint8_t(half_sum >> (8 * i)));
+  struct Case {
+    std::uint32_t mask;
+    const std::vector<std::uint8_t>* stored;
+    std::string error;  // "" when the clip must read back exactly
+  };
+  for (const Case& c : {Case{2u, &whole, ""},
+                        Case{0xfeu, &short_chunk, "decodes to 26 bytes, not the 96 of a chunk"},
+                        Case{0u, &half_stream, "is not a valid deflate chunk of 96 bytes"}}) {
+    SCOPED_TRACE(c.mask);
+    write_library(lib, Compression::deflate, true);
+    {
+      const hid_t file = H5Fopen(lib.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+      const hid_t dataset = H5Dopen2(file, "/clips/c/rotations", H5P_DEFAULT);
+      const hsize_t origin[3] = {0, 0, 0};
+      EXPECT_GE(
+          H5Dwrite_chunk(dataset, H5P_DEFAULT, c.mask, origin, c.stored->size(), c.stored->data()),
+          0);
+      H5Dclose(dataset);
+      H5Fclose(file);
+    }
+    if (c.error.empty()) {
+      std::string error;
+      const auto reader = LibraryReader::open(lib, &error);
+      ASSERT_TRUE(reader) << error;
+      const auto read = reader->read_clip("c", &error);
+      ASSERT_TRUE(read) << error;
+      EXPECT_EQ(read->rotations, clip.rotations);
+      continue;
+    }
+    const std::string error = read_error(lib);
+    EXPECT_NE(error.find("its 'rotations' chunk at frame 0 " + c.error), std::string::npos)
         << error;
   }
 }
