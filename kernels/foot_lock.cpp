@@ -5,6 +5,7 @@
 #include <memory>
 #include <string>
 
+#include "kernels/median.hpp"
 #include "kernels/simd/foot_lock_simd.hpp"
 
 namespace mocap {
@@ -54,14 +55,6 @@ Quat turn_between(double c0, double c1, Vec3 n) {
 double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
-}
-
-double median(std::vector<double>& values) {
-  const std::size_t n = values.size();
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(n / 2), values.end());
-  const double upper = values[n / 2];
-  if (n % 2 == 1) return upper;
-  return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + std::ptrdiff_t(n / 2)));
 }
 
 // What the IK needs of one leg at one frame, from the filtered motion.
