@@ -9,7 +9,8 @@
 
 namespace mocap {
 
-NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_t> skip_joints) {
+NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_t> skip_joints,
+                             std::span<const double> median_steps) {
   const int frames = rotations.frames;
   NoiseEstimate result;
   if (rotations.empty() || frames < 3) return result;
@@ -18,13 +19,15 @@ NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_
   std::vector<double> work, components, joint_sigmas;
   for (int j = 0; j < rotations.joints; ++j) {
     if (!skip_joints.empty() && skip_joints[std::size_t(j)]) continue;
+    const bool known = !median_steps.empty();
+    if (known && !(median_steps[std::size_t(j)] > kMovingJointStep)) continue;
     work.clear();
     for (int t = 0; t + 1 < frames; ++t) {
       const Quat a = load_quat(rotations.at(t, j)), b = load_quat(rotations.at(t + 1, j));
       steps[std::size_t(t)] = log(inverse(a) * b);
-      work.push_back(geodesic(a, b));
+      if (!known) work.push_back(geodesic(a, b));
     }
-    if (!(median(work) > kMovingJointStep)) continue;
+    if (!known && !(median(work) > kMovingJointStep)) continue;
 
     components.clear();
     for (std::size_t t = 1; t < steps.size(); ++t) {

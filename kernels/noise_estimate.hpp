@@ -29,8 +29,11 @@ struct NoiseEstimate {
 // `skip_joints` (empty, or one entry per joint): nonzero = left out, for joints known to be
 // garbage (kernels/joint_quality.hpp): a joint flipping by pi is "moving" to the step test, and
 // would count its flips as noise.
-NoiseEstimate estimate_noise(RotationView rotations,
-                             std::span<const std::uint8_t> skip_joints = {});
+// `median_steps` (empty, or one per joint): each joint's median frame-to-frame geodesic step
+// when the caller has it already (JointQuality::median_step of the same rotations), which is
+// exactly what the moving test would compute.
+NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_t> skip_joints = {},
+                             std::span<const double> median_steps = {});
 
 // The noise of the translated joints' trajectories (position channels), for nlpm's translation
 // filter (engine's automatic rules):

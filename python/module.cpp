@@ -168,7 +168,8 @@ Outcome run_clip(const FilterSettings& settings, Clip input, int threads) {
   Clip raw;
   if (guard) raw = motion_copy(input);
   out.conditioning = engine::condition_clip(settings, input);
-  out.resolved = engine::resolve_for_clip(settings, input, out.conditioning.garbage);
+  out.resolved =
+      engine::resolve_for_clip(settings, input, out.conditioning.garbage, out.conditioning.facts());
   engine::MotionMeasure before;
   if (guard) before = engine::measure_motion(raw, nullptr, out.resolved.segments);
   // As run_job: contacts on the conditioned input, locked after the filter (unchanged clips too).

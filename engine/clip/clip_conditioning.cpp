@@ -25,6 +25,11 @@ std::size_t ClipConditioning::pop_count() const {
   return std::accumulate(pops.begin(), pops.end(), std::size_t(0));
 }
 
+ClipFacts ClipConditioning::facts() const {
+  if (joints.empty() || segments.empty() || (repaired && pop_count() > 0)) return {};
+  return {joints, &segments};
+}
+
 namespace {
 
 // `out` ([F][J][4], a copy of `in`) with each joint's flagged runs repaired (repair_pops).
@@ -99,7 +104,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   std::vector<int> found(std::size_t(J), 0);
   std::vector<float> repaired;
   std::vector<std::uint8_t> flagged;
-  for (const Segment& seg : motion_segments(view, frame_time, flipping)) {
+  c.segments = motion_segments(view, frame_time, flipping);
+  for (const Segment& seg : c.segments) {
     flagged.assign(std::size_t(seg.frames()) * std::size_t(J), 0);
     const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;
     repaired.resize(std::size_t(seg.frames()) * std::size_t(J) * 4);

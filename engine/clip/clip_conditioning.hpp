@@ -22,8 +22,11 @@ struct ClipConditioning {
   std::vector<int> pops;                  // per joint: pops found (detect) or repaired (repair)
   bool repaired = false;                  // the pops were repaired (not only counted)
   std::vector<std::int32_t> pop_samples;  // [N][2]: frame, joint of each pop, frame order
+  std::vector<Segment> segments;          // the pop test's: between impossible steps
   bool any_garbage() const;
   std::size_t pop_count() const;
+  // What resolve_for_clip may reuse: all of it when no sample was repaired, else nothing.
+  ClipFacts facts() const;
 };
 
 // Classifies the joints of `rotations` and finds (detect) or repairs (repair, in place) its pops

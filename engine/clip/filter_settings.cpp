@@ -160,7 +160,7 @@ std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> 
 }
 
 ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& clip,
-                                  std::span<const std::uint8_t> garbage) {
+                                  std::span<const std::uint8_t> garbage, const ClipFacts& known) {
   ResolvedSettings r;
   r.settings = settings;
   const MethodEntry& asked = method_entry(settings.method);
@@ -192,9 +192,19 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
     r.translation_noise = *translation_estimate;
     return *translation_estimate;
   };
+  // The joints' classes: the noise estimate's moving test and the split's flipping joints.
+  std::vector<JointQuality> measured;
+  const auto qualities = [&]() -> std::span<const JointQuality> {
+    if (!known.joints.empty()) return known.joints;
+    if (measured.empty()) measured = classify_joints(clip.rotation_view());
+    return measured;
+  };
   if (asked.needs_noise(settings)) {
-    const NoiseEstimate noise = estimate_noise(
-        clip.rotation_view(), any_garbage ? garbage : std::span<const std::uint8_t>{});
+    std::vector<double> median_steps;
+    for (const JointQuality& q : qualities()) median_steps.push_back(q.median_step);
+    const NoiseEstimate noise =
+        estimate_noise(clip.rotation_view(),
+                       any_garbage ? garbage : std::span<const std::uint8_t>{}, median_steps);
     r.noise_sigma = noise.sigma;
     if (noise.moving_joints == 0 || noise.sigma <= 0) {
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
@@ -207,10 +217,14 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
   r.settings = resolve_parameters(r.settings, context, r.noisy_positions);
   if (settings.split_impossible) {
     // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
-    std::vector<std::uint8_t> flipping;
-    for (const JointQuality& q : classify_joints(clip.rotation_view()))
-      flipping.push_back(q.joint_class == JointClass::flipping);
-    r.segments = motion_segments(clip.rotation_view(), clip.frame_time, flipping);
+    if (known.segments) {
+      r.segments = *known.segments;
+    } else {
+      std::vector<std::uint8_t> flipping;
+      for (const JointQuality& q : qualities())
+        flipping.push_back(q.joint_class == JointClass::flipping);
+      r.segments = motion_segments(clip.rotation_view(), clip.frame_time, flipping);
+    }
     if (r.segments.size() <= 1) r.segments.clear();
   }
   return r;

@@ -13,6 +13,7 @@
 #include "core/clip.hpp"
 #include "core/status.hpp"
 #include "kernels/bilateral.hpp"
+#include "kernels/joint_quality.hpp"
 #include "kernels/kalman.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/motion_split.hpp"
@@ -196,11 +197,20 @@ struct ResolvedSettings {
 // garbage) are left out: empty (all joints, the spec's distance) when none or all are garbage.
 std::vector<std::uint8_t> distance_joints_without(std::span<const std::uint8_t> garbage);
 
+// What the clip's conditioning measured on these very rotations, for resolve_for_clip to take
+// instead of measuring again: the same functions on the same samples, so the same bits. Only
+// given when the conditioning changed no sample (ClipConditioning::facts).
+struct ClipFacts {
+  std::span<const JointQuality> joints;            // classify_joints (empty: not known)
+  const std::vector<Segment>* segments = nullptr;  // motion_segments, flipping joints skipped
+};
+
 // `garbage` (empty, or one entry per joint, nonzero = garbage) comes from the clip's
 // conditioning: garbage joints stay out of the noise estimate and nlpm's distance and, with
 // keep_garbage_joints, are copied as they came.
 ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& clip,
-                                  std::span<const std::uint8_t> garbage = {});
+                                  std::span<const std::uint8_t> garbage = {},
+                                  const ClipFacts& known = {});
 
 // What --method auto picks for a clip of estimated noise sigma_hat (rad): the method and its
 // parameters (README "Automatic parameters"):

@@ -132,7 +132,7 @@ RunSummary run_job(const Job& job) {
     ResolvedSettings resolved;
     {
       const Timed timed(times, StageTimes::resolve);
-      resolved = resolve_for_clip(settings, item.input, conditioning.garbage);
+      resolved = resolve_for_clip(settings, item.input, conditioning.garbage, conditioning.facts());
     }
     MotionMeasure before;
     if (measure) {
