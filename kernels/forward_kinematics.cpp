@@ -25,16 +25,20 @@ Status ForwardKinematicsJob::validate() const {
     if (!translations.same_shape(rotations) || translations.data == nullptr)
       return Status::error("translations must have the shape of the rotations");
   }
-  if (!positions.same_shape(rotations) || (rotations.frames > 0 && positions.data == nullptr))
-    return Status::error("positions must have the shape of the rotations");
+  const int outputs = output_joints.empty() ? joints : int(output_joints.size());
+  if (positions.frames != rotations.frames || positions.joints != outputs ||
+      (rotations.frames > 0 && positions.data == nullptr))
+    return Status::error(output_joints.empty() ? "positions must have the shape of the rotations"
+                                               : "positions must be [frames][output joints][3]");
   for (const JointSite& s : sites)
     if (s.joint < 0 || s.joint >= joints)
       return Status::error("site on joint " + std::to_string(s.joint) + " of " +
                            std::to_string(joints));
-  if (!sites.empty() &&
-      (site_positions.frames != rotations.frames || site_positions.joints != int(sites.size()) ||
-       site_positions.data == nullptr))
-    return Status::error("site_positions must be [frames][sites][3]");
+  for (int j : output_joints)
+    if (j < 0 || j >= joints)
+      return Status::error("output joint " + std::to_string(j) + " of " + std::to_string(joints));
+  if (!output_joints.empty() && !sites.empty())
+    return Status::error("sites need every joint: output_joints must be empty");
   return {};
 }
 
@@ -43,8 +47,14 @@ Status ForwardKinematicsJob::run() const {
   const int joints = int(parents.size());
   std::vector<Quat> global_rotation(parents.size());
   std::vector<Vec3> global_position(parents.size());
+  // The joints to compute: all, or the chains of the output joints.
+  std::vector<std::uint8_t> computed(parents.size(), output_joints.empty() ? 1 : 0);
+  for (int o : output_joints)
+    for (int j = o; j >= 0 && !computed[std::size_t(j)]; j = parents[std::size_t(j)])
+      computed[std::size_t(j)] = 1;
   for (int t = 0; t < rotations.frames; ++t) {
     for (int j = 0; j < joints; ++j) {
+      if (!computed[std::size_t(j)]) continue;
       const Quat local = load_quat(rotations.at(t, j));
       const Vec3 translation = !translated_joints.empty() && translated_joints[j] != 0
                                    ? load_vec3(translations.at(t, j))
@@ -57,8 +67,10 @@ Status ForwardKinematicsJob::run() const {
         global_rotation[j] = global_rotation[p] * local;
         global_position[j] = global_position[p] + rotate(global_rotation[p], translation);
       }
-      store_vec3(global_position[j], positions.at(t, j));
+      if (output_joints.empty()) store_vec3(global_position[j], positions.at(t, j));
     }
+    for (std::size_t k = 0; k < output_joints.size(); ++k)
+      store_vec3(global_position[std::size_t(output_joints[k])], positions.at(t, int(k)));
     for (std::size_t s = 0; s < sites.size(); ++s) {
       const int j = sites[s].joint;
       store_vec3(global_position[j] + rotate(global_rotation[j], sites[s].offset),

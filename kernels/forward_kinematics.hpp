@@ -33,7 +33,12 @@ struct ForwardKinematicsJob {
   TranslationView translations;
   std::span<const std::uint8_t> translated_joints;
   std::span<const JointSite> sites;
-  TranslationSpan positions;       // [F][J][3], written: global joint positions
+  // Optional: only these joints' positions are wanted, and then `positions` is [F][K][3] in this
+  // order (K = its size) and only the joints on their chains to the root are computed, with the
+  // same arithmetic: what a caller needs of a few joints (the ankles) costs their chains, not
+  // the whole skeleton. Empty: every joint, [F][J][3]. Sites need the whole skeleton.
+  std::span<const int> output_joints;
+  TranslationSpan positions;       // [F][J][3] (or [F][K][3]), written: global joint positions
   TranslationSpan site_positions;  // [F][S][3], written (may be empty when there are no sites)
 
   // Sizes agree, parents precede their children, sites name existing joints.

@@ -109,6 +109,56 @@ TEST(ForwardKinematics, IsEquivariantUnderARigidMotionOfTheRoot) {
                 "sample " + std::to_string(i));
 }
 
+// output_joints computes only the chains above the wanted joints, with the same arithmetic:
+// their positions are the full run's bit for bit, in the order asked, with translated joints.
+TEST(ForwardKinematics, OutputJointsAreTheFullRunsBitForBit) {
+  std::mt19937_64 rng(5);
+  const int frames = 6, joints = 14;
+  std::vector<int> parents{-1};
+  std::vector<Vec3> offsets{{0, 0, 0}};
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int j = 1; j < joints; ++j) {
+    parents.push_back(int(rng() % std::uint64_t(j)));
+    offsets.push_back({u(rng), u(rng), u(rng)});
+  }
+  std::vector<float> rotations(std::size_t(frames) * joints * 4);
+  std::vector<float> translations(std::size_t(frames) * joints * 3);
+  for (int i = 0; i < frames * joints; ++i) {
+    store_quat(test::random_rotation(rng), &rotations[std::size_t(i) * 4]);
+    store_vec3({u(rng), u(rng), u(rng)}, &translations[std::size_t(i) * 3]);
+  }
+  std::vector<std::uint8_t> translated(joints, 0);
+  translated[0] = translated[3] = 1;
+  std::vector<float> all(std::size_t(frames) * joints * 3);
+  ForwardKinematicsJob fk;
+  fk.parents = parents;
+  fk.offsets = offsets;
+  fk.rotations = {rotations.data(), frames, joints};
+  fk.translations = {translations.data(), frames, joints};
+  fk.translated_joints = translated;
+  fk.positions = {all.data(), frames, joints};
+  ASSERT_TRUE(fk.run().ok());
+  const std::vector<int> wanted{13, 4, 0, 9};
+  std::vector<float> some(std::size_t(frames) * wanted.size() * 3, -7.0f);
+  fk.output_joints = wanted;
+  fk.positions = {some.data(), frames, int(wanted.size())};
+  ASSERT_TRUE(fk.run().ok());
+  for (int t = 0; t < frames; ++t)
+    for (std::size_t k = 0; k < wanted.size(); ++k)
+      for (int axis = 0; axis < 3; ++axis)
+        EXPECT_EQ(some[(std::size_t(t) * wanted.size() + k) * 3 + std::size_t(axis)],
+                  all[(std::size_t(t) * joints + std::size_t(wanted[k])) * 3 + std::size_t(axis)])
+            << "frame " << t << ", joint " << wanted[k];
+
+  // A position array of the whole skeleton is not one of the wanted joints'.
+  fk.positions = {all.data(), frames, joints};
+  EXPECT_FALSE(fk.validate().ok());
+  const std::vector<int> outside{joints};
+  fk.output_joints = outside;
+  fk.positions = {some.data(), frames, 1};
+  EXPECT_NE(fk.validate().message().find("output joint 14"), std::string::npos);
+}
+
 TEST(ForwardKinematics, ValidateNamesWhatIsWrong) {
   const std::vector<int> parents{-1, 2, 0};  // joint 1's parent comes after it
   const std::vector<Vec3> offsets(3);
