@@ -1,5 +1,6 @@
 #include "engine/library/demo_library.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <memory>
@@ -133,17 +134,70 @@ void wave(double time, const Skeleton& s, Pose& p) {
   set("Head", {0, 15 * std::sin(0.5 * time), 0});
 }
 
-// Turning on the spot through a full circle: the root rotation passes pi.
-void turn(double time, const Skeleton& s, Pose& p) {
-  p.angles_deg[joint_index(s, "Hips")] = {0, 360.0 * time / 3.0, 0};
-  auto set = [&](const char* name, Vec3 v) { p.angles_deg[joint_index(s, name)] = v; };
+// The local rotation of a joint in the pose (angles in the skeleton's order for the joint).
+Quat local_rotation(const Skeleton& s, const Pose& p, int joint) {
+  const RotationOrder order = s.rotation_order(joint);
+  EulerAngles e;
+  for (int i = 0; i < 3; ++i) {
+    const int axis = order_axis(order, i);
+    const Vec3& a = p.angles_deg[std::size_t(joint)];
+    e[i] = (axis == 0 ? a.x : axis == 1 ? a.y : a.z) * kDeg;
+  }
+  return euler_to_quat(order, e);
+}
+
+// A joint's position relative to the root's, by forward kinematics of the pose.
+Vec3 from_root(const Skeleton& s, const Pose& p, int joint) {
+  Vec3 position{};
+  for (int j = joint; s.parents[std::size_t(j)] >= 0; j = s.parents[std::size_t(j)]) {
+    const int parent = s.parents[std::size_t(j)];
+    position = rotate(local_rotation(s, p, parent), s.offsets[std::size_t(j)] + position);
+  }
+  return position;
+}
+
+// The legs of the turn: the foot of `side` (0 left, 1 right) lifts while the other stands.
+void turn_pose(double time, const Skeleton& s, Pose& p) {
+  p.angles_deg[std::size_t(joint_index(s, "Hips"))] = {0, 360.0 * time / 3.0, 0};
+  auto set = [&](const char* name, Vec3 v) { p.angles_deg[std::size_t(joint_index(s, name))] = v; };
   const double step = 2 * kPi * time / 0.75;
-  set("LeftUpLeg", {-15 * std::max(0.0, std::sin(step)), 0, -3});
-  set("LeftLeg", {30 * std::max(0.0, std::sin(step)), 0, 0});
-  set("RightUpLeg", {-15 * std::max(0.0, -std::sin(step)), 0, 3});
-  set("RightLeg", {30 * std::max(0.0, -std::sin(step)), 0, 0});
+  set("LeftUpLeg", {-30 * std::max(0.0, std::sin(step)), 0, -3});
+  set("LeftLeg", {60 * std::max(0.0, std::sin(step)), 0, 0});
+  set("RightUpLeg", {-30 * std::max(0.0, -std::sin(step)), 0, 3});
+  set("RightLeg", {60 * std::max(0.0, -std::sin(step)), 0, 0});
   set("LeftArm", {0, 0, -70});
   set("RightArm", {0, 0, 70});
+}
+
+// Turning on the spot through a full circle (the root rotation passes pi) in steps, as a body
+// does: the feet lift in turn every 0.375 s, and the standing foot stays where it landed while
+// the body turns about it (the root moves so that the standing ankle holds still), so the
+// ground truth itself has planted feet for the lock to keep.
+void turn(double time, const Skeleton& s, Pose& p) {
+  constexpr double half_step = 0.375;
+  const int ankles[2] = {joint_index(s, "LeftFoot"), joint_index(s, "RightFoot")};
+  Pose at = p;
+  auto ankle_at = [&](double t, int side) {
+    at.angles_deg = p.angles_deg;
+    turn_pose(t, s, at);
+    return from_root(s, at, ankles[side]);
+  };
+  const Vec3 start = p.root;
+  // Each half step: the right foot stands while the left lifts (even), then the other.
+  const int halves = int(std::floor(time / half_step));
+  Vec3 root = start;
+  for (int k = 0; k < halves; ++k) {
+    // At the end of half k the standing foot changes; the root at that moment places both.
+    const double t1 = (k + 1) * half_step;
+    const int stance = k % 2 == 0 ? 1 : 0;
+    const Vec3 planted = root + ankle_at(k * half_step, stance);
+    root = planted - ankle_at(t1, stance);
+  }
+  const int stance = halves % 2 == 0 ? 1 : 0;
+  const Vec3 planted = root + ankle_at(halves * half_step, stance);
+  root = planted - ankle_at(time, stance);
+  turn_pose(time, s, p);
+  p.root = {root.x, start.y, root.z};
 }
 
 }  // namespace
