@@ -35,16 +35,22 @@ std::vector<Vec3> smooth(const std::vector<Vec3>& track, double sigma) {
   double sum = 0;
   for (int r = -reach; r <= reach; ++r)
     sum += mask[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  // Mirror at the ends (periodic for reaches beyond the clip); only the frames within `reach` of
+  // an end need it.
+  const long period = 2L * (n - 1);
+  auto mirrored = [&](long s) {
+    s = ((s % period) + period) % period;
+    return s >= n ? period - s : s;
+  };
   std::vector<Vec3> out(track.size());
   for (int t = 0; t < n; ++t) {
     Vec3 acc;
-    for (int r = -reach; r <= reach; ++r) {
-      long s = t + r;
-      // Mirror, periodic for reaches beyond the clip.
-      const long period = 2L * (n - 1);
-      s = ((s % period) + period) % period;
-      if (s >= n) s = period - s;
-      acc += mask[std::size_t(r + reach)] * track[std::size_t(s)];
+    if (t >= reach && t + reach < n) {
+      for (int r = -reach; r <= reach; ++r)
+        acc += mask[std::size_t(r + reach)] * track[std::size_t(t + r)];
+    } else {
+      for (int r = -reach; r <= reach; ++r)
+        acc += mask[std::size_t(r + reach)] * track[std::size_t(mirrored(long(t) + r))];
     }
     out[std::size_t(t)] = (1.0 / sum) * acc;
   }
@@ -80,8 +86,8 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
   // horizontal speed of smoothed white noise of std `noise` per axis, sigma frames:
   // 1.25 noise / (2 pi^(1/4) sigma^1.5 frame_time)), at most max_smoothing_seconds.
   double sigma = p.smoothing_seconds / frame_time;
-  const double noise = horizontal_noise(track);
   const double allowed = p.noise_speed_fraction * p.enter_speed * height;
+  const double noise = allowed > 0 ? horizontal_noise(track) : 0;
   if (noise > 0 && allowed > 0) {
     const double needed =
         std::pow(1.25 * noise / (2 * std::pow(kPi, 0.25) * frame_time * allowed), 2.0 / 3.0);
@@ -171,6 +177,60 @@ Status FootContactJob::run() const {
     (*contacts)[std::size_t(f)] = detect(track, params, frame_time, body_height);
   }
   return {};
+}
+
+namespace {
+
+// The per-axis median (x, z) of the track over an interval.
+Vec3 horizontal_median(std::span<const Vec3> track, ContactInterval c) {
+  std::vector<double> x, z;
+  for (int t = c.begin; t < c.end; ++t) {
+    x.push_back(track[std::size_t(t)].x);
+    z.push_back(track[std::size_t(t)].z);
+  }
+  const auto mid = std::ptrdiff_t(x.size() / 2);
+  std::nth_element(x.begin(), x.begin() + mid, x.end());
+  std::nth_element(z.begin(), z.begin() + mid, z.end());
+  return {x[std::size_t(mid)], 0.0, z[std::size_t(mid)]};
+}
+
+double horizontal_distance(const Vec3& a, const Vec3& b) {
+  return std::hypot(a.x - b.x, a.z - b.z);
+}
+
+}  // namespace
+
+std::vector<ContactInterval> widen_contacts(const std::vector<ContactInterval>& input,
+                                            const std::vector<ContactInterval>& filtered,
+                                            std::span<const Vec3> track, double reach) {
+  const int n = int(track.size());
+  const std::vector<std::uint8_t> planted = contact_mask(filtered, n);
+  std::vector<ContactInterval> out;
+  std::vector<Vec3> pins;
+  for (std::size_t k = 0; k < input.size(); ++k) {
+    ContactInterval c{std::clamp(input[k].begin, 0, n), std::clamp(input[k].end, 0, n)};
+    if (c.frames() <= 0) continue;
+    const Vec3 pin = horizontal_median(track, c);
+    auto holds = [&](int t) {
+      return planted[std::size_t(t)] && horizontal_distance(track[std::size_t(t)], pin) < reach;
+    };
+    const int floor = out.empty() ? 0 : out.back().end;
+    while (c.begin > floor && holds(c.begin - 1)) --c.begin;
+    if (!out.empty() && c.begin == out.back().end &&
+        horizontal_distance(pins.back(), pin) < reach) {
+      out.back().end = c.end;  // joined backward: the earlier contact's pin stands
+    } else {
+      out.push_back(c);
+      pins.push_back(pin);
+    }
+    const int ceiling = k + 1 < input.size() ? std::clamp(input[k + 1].begin, 0, n) : n;
+    ContactInterval& last = out.back();
+    const Vec3 last_pin = pins.back();
+    while (last.end < ceiling && planted[std::size_t(last.end)] &&
+           horizontal_distance(track[std::size_t(last.end)], last_pin) < reach)
+      ++last.end;
+  }
+  return out;
 }
 
 std::vector<FootChain> find_feet(std::span<const std::string> names, std::span<const int> parents,

@@ -68,6 +68,22 @@ struct FootContactJob {
   Status run() const;
 };
 
+// The contacts found on a clip as it came, each widened over the frames where the same foot is
+// also planted in its filtered motion and stays put there (README "Feet", "Widening"). Noise
+// breaks a contact of the input into fragments and clips its ends (the detector's thresholds
+// read the noise as speed); the filtered motion, whose noise is gone, still holds the foot
+// planted across them. Per input contact k, pin p_k = the per-axis median (x, z) of the filtered
+// track over it; it grows frame by frame, forward from its end and backward from its begin,
+// while the frame lies in a contact of `filtered` and the filtered foot stays within `reach`
+// (horizontal distance, file units) of p_k, never into another input contact; where it reaches
+// the next input contact and that contact's pin lies within `reach` of p_k, the two are one.
+// Only grows what the input found: a contact of the filtered motion alone is not added, and a
+// foot that steps (moves more than `reach`) ends its contact there, so successive low steps
+// stay apart.
+std::vector<ContactInterval> widen_contacts(const std::vector<ContactInterval>& input,
+                                            const std::vector<ContactInterval>& filtered,
+                                            std::span<const Vec3> track, double reach);
+
 // A leg by joint index (-1 = none): ankle is the foot point, knee its parent, hip the knee's
 // parent; toe is a child of the ankle when there is one.
 struct FootChain {

@@ -24,6 +24,57 @@ std::vector<float> joint_positions(const Clip& clip) {
   return positions;
 }
 
+namespace {
+
+// The legs' ankles' global positions [F][legs][3] by forward kinematics; empty when the clip's
+// shapes do not agree.
+std::vector<float> ankle_tracks(const Clip& clip, const std::vector<FootChain>& legs) {
+  const Skeleton& sk = *clip.skeleton;
+  std::vector<int> ankles;
+  for (const FootChain& leg : legs) ankles.push_back(leg.ankle);
+  std::vector<float> positions(std::size_t(clip.frames) * ankles.size() * 3);
+  const std::vector<std::uint8_t> translated = sk.translated_mask();
+  ForwardKinematicsJob fk;
+  fk.parents = sk.parents;
+  fk.offsets = sk.offsets;
+  fk.rotations = clip.rotation_view();
+  fk.translations = clip.translation_view();
+  fk.translated_joints = translated;
+  fk.output_joints = ankles;
+  fk.positions = {positions.data(), clip.frames, int(ankles.size())};
+  if (!fk.run().ok()) positions.clear();
+  return positions;
+}
+
+// Contacts [leg] of the ankle tracks; false for a flat skeleton (no height).
+bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs, std::vector<float>& ankles,
+                   std::vector<std::vector<ContactInterval>>& contacts) {
+  FootContactJob job;
+  job.feet = {ankles.data(), clip.frames, int(legs.size())};
+  job.frame_time = clip.frame_time;
+  job.body_height = body_height(*clip.skeleton);
+  job.contacts = &contacts;
+  return job.run().ok();
+}
+
+// The input's contacts widened by the filtered motion's (kernels/foot_contacts.hpp,
+// widen_contacts; README "Feet", "Widening").
+void widen_by_filtered(ClipFeet& feet, const Clip& filtered) {
+  std::vector<float> ankles = ankle_tracks(filtered, feet.legs);
+  std::vector<std::vector<ContactInterval>> found;
+  if (ankles.empty() || !find_contacts(filtered, feet.legs, ankles, found)) return;
+  const double reach = kWidenReach * body_height(*filtered.skeleton);
+  const std::size_t N = feet.legs.size();
+  std::vector<Vec3> track(std::size_t(filtered.frames));
+  for (std::size_t n = 0; n < N; ++n) {
+    for (int t = 0; t < filtered.frames; ++t)
+      track[std::size_t(t)] = load_vec3(&ankles[(std::size_t(t) * N + n) * 3]);
+    feet.contacts[n] = widen_contacts(feet.contacts[n], found[n], track, reach);
+  }
+}
+
+}  // namespace
+
 ClipFeet detect_feet(const Clip& clip) {
   ClipFeet feet;
   if (!clip.skeleton || clip.frames == 0) return feet;
@@ -31,28 +82,16 @@ ClipFeet detect_feet(const Clip& clip) {
   for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
     if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
   if (feet.legs.empty()) return feet;
-  const std::vector<float> positions = joint_positions(clip);
-  if (positions.empty()) return {};  // checked clips always pass; nothing to lock otherwise
-  const TensorView<const float, 3> global{positions.data(), clip.frames, sk.joint_count()};
-  const int N = int(feet.legs.size());
-  std::vector<float> ankles(std::size_t(clip.frames) * std::size_t(N) * 3);
-  for (int t = 0; t < clip.frames; ++t)
-    for (int n = 0; n < N; ++n) {
-      const float* p = global.at(t, feet.legs[std::size_t(n)].ankle);
-      std::copy(p, p + 3, &ankles[(std::size_t(t) * std::size_t(N) + std::size_t(n)) * 3]);
-    }
-  FootContactJob contacts;
-  contacts.feet = {ankles.data(), clip.frames, N};
-  contacts.frame_time = clip.frame_time;
-  contacts.body_height = body_height(sk);
-  contacts.contacts = &feet.contacts;
-  if (!contacts.run().ok()) return {};  // a flat skeleton (no height): no feet to find
+  std::vector<float> ankles = ankle_tracks(clip, feet.legs);
+  if (ankles.empty()) return {};  // checked clips always pass; nothing to lock otherwise
+  if (!find_contacts(clip, feet.legs, ankles, feet.contacts)) return {};  // a flat skeleton
   return feet;
 }
 
 Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params,
                  std::span<const std::uint8_t> counted_steps, FootLockScratch* scratch) {
   if (feet.legs.empty()) return {};
+  widen_by_filtered(feet, filtered);
   const Skeleton& sk = *filtered.skeleton;
   const std::vector<std::uint8_t> translated = sk.translated_mask();
   FootLockJob job;

@@ -15,6 +15,11 @@
 
 namespace mocap::engine {
 
+// How far (body heights, horizontal) a planted foot of the filtered motion may stand from its
+// contact's pin for widen_contacts to grow the contact over it (README "Feet", "Widening", says
+// how it was chosen).
+constexpr double kWidenReach = 0.02;
+
 struct ClipFeet {
   std::vector<FootChain> legs;                         // the skeleton's feet (find_feet)
   std::vector<std::vector<ContactInterval>> contacts;  // per leg, its ankle's, on the input
@@ -35,6 +40,9 @@ ClipFeet detect_feet(const Clip& clip);
 // reused across clips, one per thread (tbb::enumerable_thread_specific): only the lock's run()
 // uses it, and that makes no TBB call, so no task the thread steals can find it in use. Results
 // do not depend on it.
+// First widens feet.contacts by the contacts of `filtered` itself (widen_contacts, reach
+// kWidenReach body heights): noise breaks and clips the input's contacts; the filtered motion
+// holds them whole.
 Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params = {},
                  std::span<const std::uint8_t> counted_steps = {},
                  FootLockScratch* scratch = nullptr);

@@ -5,9 +5,10 @@
 // (the README's "Feet" table comes from it). Checks the targets that hold on every clip (README
 // "Feet"): without noise, skating <= 1.05x the capture's and the knees' peak angular speed <=
 // 1.2x the input's, at both rates; with noise, wherever the contacts found on the noisy input
-// cover at least half of the capture's, locking lowers skating below --feet off. Only printed,
-// as they do not hold on every clip: with noise, skating <= 1.2x the capture's and joint
-// position error <= 0.6x the noisy input's.
+// cover at least half of the capture's, locking lowers skating below --feet off, and wherever
+// they cover at least 55 %, skating <= 1.2x the capture's (the target; on a clip whose
+// contacts the noise hides, 02_03, locking can only hold what was found). Only printed, as it
+// does not hold on every clip: with noise, joint position error <= 0.6x the noisy input's.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -269,6 +270,9 @@ TEST_P(FootSkating, CleanDefaultsOnNoisyInputStayNearTheCapturesSkating) {
         on.mpjpe / input.mpjpe, 100 * coverage);
     if (coverage >= 0.5) {
       EXPECT_LT(on.skating, off.skating) << data.names[i];
+    }
+    if (coverage >= 0.55) {
+      EXPECT_LE(on.skating, 1.2 * capture.skating) << data.names[i];
     }
   }
 }

@@ -1,0 +1,287 @@
+// Foot contact detection (kernels/foot_contacts.hpp) on synthetic tracks with known answers, and
+// the widening of a noisy input's contacts by the filtered motion's (widen_contacts).
+#include "kernels/foot_contacts.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/quaternion.hpp"
+
+namespace mocap {
+namespace {
+
+using Track = std::vector<float>;  // [F][N][3]
+
+TensorView<const float, 3> view(const Track& t, int frames, int points) {
+  return {t.data(), frames, points};
+}
+
+// A walking foot at `fps`: planted for 0.6 s, swinging (up to 10 cm high, 70 cm forward) for
+// 0.4 s, repeated. Units: cm, body height 170.
+Track walking_foot(double fps, int frames, std::vector<ContactInterval>* planted) {
+  Track track(std::size_t(frames) * 3);
+  const double cycle = 1.0, stance = 0.6;
+  int begin = -1;
+  for (int t = 0; t < frames; ++t) {
+    const double time = t / fps, phase = std::fmod(time, cycle);
+    const int steps = int(time / cycle);
+    double x = 70.0 * steps, y = 8.0;
+    const bool down = phase < stance;
+    if (!down) {
+      const double s = (phase - stance) / (cycle - stance);  // 0..1 through the swing
+      x += 70.0 * (0.5 - 0.5 * std::cos(kPi * s));
+      y += 10.0 * std::sin(kPi * s);
+    }
+    track[std::size_t(t) * 3] = float(x);
+    track[std::size_t(t) * 3 + 1] = float(y);
+    track[std::size_t(t) * 3 + 2] = 0.0f;
+    if (down && begin < 0) begin = t;
+    if (!down && begin >= 0) {
+      planted->push_back({begin, t});
+      begin = -1;
+    }
+  }
+  if (begin >= 0) planted->push_back({begin, frames});
+  return track;
+}
+
+std::vector<ContactInterval> detect(const Track& track, int frames, double fps) {
+  std::vector<std::vector<ContactInterval>> contacts;
+  FootContactJob job;
+  job.feet = view(track, frames, 1);
+  job.frame_time = 1.0 / fps;
+  job.body_height = 170;
+  job.contacts = &contacts;
+  EXPECT_TRUE(job.run().ok());
+  return contacts.at(0);
+}
+
+// Frames where the detection and the truth agree, as a share of all frames.
+double agreement(const std::vector<ContactInterval>& a, const std::vector<ContactInterval>& b,
+                 int frames) {
+  const auto ma = contact_mask(a, frames), mb = contact_mask(b, frames);
+  int same = 0;
+  for (int t = 0; t < frames; ++t) same += ma[std::size_t(t)] == mb[std::size_t(t)];
+  return double(same) / frames;
+}
+
+TEST(FootContacts, FindsTheStancesOfASyntheticWalkAtEveryFrameRate) {
+  for (double fps : {24.0, 30.0, 60.0, 120.0}) {
+    const int frames = int(5 * fps);
+    std::vector<ContactInterval> truth;
+    const Track track = walking_foot(fps, frames, &truth);
+    const auto found = detect(track, frames, fps);
+    EXPECT_EQ(found.size(), truth.size()) << fps << " fps";
+    // The edges of a stance are soft (the foot slows down and lowers), a few frames either way.
+    EXPECT_GT(agreement(found, truth, frames), 0.85) << fps << " fps";
+  }
+}
+
+TEST(FootContacts, NoiseDoesNotChatter) {
+  // 7 mm of position noise (0.4 % of the body) on every frame: still one interval per stance.
+  const double fps = 120;
+  const int frames = 600;
+  std::vector<ContactInterval> truth;
+  Track track = walking_foot(fps, frames, &truth);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<float> noise(0.0f, 0.7f);
+  for (float& v : track) v += noise(rng);
+  const auto found = detect(track, frames, fps);
+  EXPECT_EQ(found.size(), truth.size());
+  EXPECT_GT(agreement(found, truth, frames), 0.8);
+}
+
+// The ankle noise of eval's 0.02 rad + 0.004 body (about 1.8 % of the body per axis on the
+// shared clips, 3 cm here) at 30 and 120 fps: one interval per stance (the smoothing is 4x fewer
+// frames at 30 fps).
+TEST(FootContacts, EvalsNoiseDoesNotChatterAtAnyFrameRate) {
+  for (double fps : {30.0, 120.0}) {
+    const int frames = int(6 * fps);
+    std::vector<ContactInterval> truth;
+    Track track = walking_foot(fps, frames, &truth);
+    std::mt19937_64 rng(5);
+    std::normal_distribution<float> noise(0.0f, 3.0f);
+    for (float& v : track) v += noise(rng);
+    const auto found = detect(track, frames, fps);
+    EXPECT_EQ(found.size(), truth.size()) << fps << " fps";
+    EXPECT_GT(agreement(found, truth, frames), 0.85) << fps << " fps";
+  }
+}
+
+// Clips shorter than the window that joins broken contacts (a 7-frame cut at 120 fps): a foot
+// resting on the floor and lifting before the end gives one contact or none, and no crash (the
+// join once looked at the previous contact when there was none).
+TEST(FootContacts, ClipsShorterThanTheJoinWindowAreSafe) {
+  for (int frames = 3; frames <= 12; ++frames) {
+    Track track(std::size_t(frames) * 3);
+    for (int t = 0; t < frames; ++t) track[std::size_t(t) * 3 + 1] = t < frames - 1 ? 0.0f : 40.0f;
+    const auto found = detect(track, frames, 120);
+    EXPECT_LE(found.size(), 1u) << frames << " frames";
+    for (const ContactInterval& c : found) {
+      EXPECT_GE(c.begin, 0);
+      EXPECT_LE(c.end, frames);
+    }
+  }
+}
+
+TEST(FootContacts, AFootThatNeverLandsHasNoContact) {
+  // Moving steadily at 1 m/s, never still.
+  const int frames = 240;
+  Track track(std::size_t(frames) * 3);
+  for (int t = 0; t < frames; ++t) {
+    track[std::size_t(t) * 3] = float(100.0 * t / 120.0);
+    track[std::size_t(t) * 3 + 1] = 8.0f;
+  }
+  EXPECT_TRUE(detect(track, frames, 120).empty());
+}
+
+TEST(FootContacts, RejectsBadParameters) {
+  std::vector<std::vector<ContactInterval>> contacts;
+  FootContactJob job;
+  job.frame_time = 0;
+  job.body_height = 170;
+  job.contacts = &contacts;
+  EXPECT_NE(job.validate().message().find("frame_time"), std::string::npos);
+  job.frame_time = 1.0 / 120;
+  job.body_height = -1;
+  EXPECT_NE(job.validate().message().find("body_height"), std::string::npos);
+}
+
+TEST(FootContacts, FindsFeetByNameOrAsTheLowestLeaves) {
+  // CMU-like leg: Hips -> LeftUpLeg -> LeftLeg -> LeftFoot -> LeftToeBase, and the right side.
+  const std::vector<std::string> names = {"Hips",     "LeftUpLeg",   "LeftLeg",
+                                          "LeftFoot", "LeftToeBase", "RightUpLeg",
+                                          "RightLeg", "RightFoot",   "RightToeBase"};
+  const std::vector<int> parents = {-1, 0, 1, 2, 3, 0, 5, 6, 7};
+  const std::vector<Vec3> offsets = {{0, 0, 0},  {1, 0, 0},  {0, -4, 0}, {0, -4, 0}, {0, -1, 1},
+                                     {-1, 0, 0}, {0, -4, 0}, {0, -4, 0}, {0, -1, 1}};
+  const auto feet = find_feet(names, parents, offsets);
+  ASSERT_EQ(feet.size(), 2u);
+  EXPECT_EQ(feet[0].side, 'L');
+  EXPECT_EQ(feet[0].ankle, 3);
+  EXPECT_EQ(feet[0].knee, 2);
+  EXPECT_EQ(feet[0].hip, 1);
+  EXPECT_EQ(feet[0].toe, 4);
+  EXPECT_EQ(feet[1].ankle, 7);
+  const std::vector<std::string> anonymous(names.size(), "j");
+  const auto leaves = find_feet(anonymous, parents, offsets);
+  ASSERT_EQ(leaves.size(), 2u);
+  EXPECT_TRUE((leaves[0].ankle == 4 && leaves[1].ankle == 8) ||
+              (leaves[0].ankle == 8 && leaves[1].ankle == 4));
+  const std::vector<std::pair<int, Vec3>> sites = {{4, {0, -0.5, 0}}};
+  EXPECT_DOUBLE_EQ(rest_height(parents, offsets, sites), 9.5);
+}
+
+TEST(FootContacts, LegsNeverShareAJoint) {
+  // A tree without names whose two lowest leaves are siblings (as in mocap-library-bench's
+  // synthetic skeleton): as two legs they would share their knee and hip, and the foot lock would
+  // refuse the clip. Root 0; hips 1, 2; knees 3 (of 1), 4 (of 2); ankles 5, 6 (of 3), 7 (of 4).
+  const std::vector<int> parents = {-1, 0, 0, 1, 2, 3, 3, 4};
+  const std::vector<Vec3> offsets = {{0, 0, 0},  {1, -1, 0},   {-1, -1, 0},   {0, -2, 0},
+                                     {0, -2, 0}, {0.3, -2, 0}, {-0.3, -2, 0}, {0, -1.5, 0}};
+  const std::vector<std::string> anonymous(parents.size(), "j");
+  const auto legs = find_feet(anonymous, parents, offsets);
+  ASSERT_EQ(legs.size(), 2u);
+  EXPECT_EQ(legs[0].ankle, 5);  // the lowest leaf (y -5; 6 ties it and shares its knee)
+  EXPECT_EQ(legs[1].ankle, 7);  // the lowest leaf of the other leg (y -4.5)
+  std::set<int> joints;
+  for (const FootChain& leg : legs)
+    for (int j : {leg.hip, leg.knee, leg.ankle}) {
+      if (j >= 0) {
+        EXPECT_TRUE(joints.insert(j).second) << "joint " << j << " in two legs";
+      }
+    }
+  // Named feet on one chain (LeftFoot and RightFoot siblings under one knee): one leg, not two.
+  const std::vector<std::string> named = {"Hips", "Leg", "Knee", "RightFoot", "LeftFoot"};
+  const std::vector<int> chain = {-1, 0, 1, 2, 2};
+  const std::vector<Vec3> down(chain.size(), Vec3{0, -1, 0});
+  EXPECT_EQ(find_feet(named, chain, down).size(), 1u);
+}
+
+std::vector<Vec3> points(const Track& t) {
+  std::vector<Vec3> out;
+  for (std::size_t i = 0; i + 2 < t.size(); i += 3) out.push_back(load_vec3(&t[i]));
+  return out;
+}
+
+// A foot planted at x = 0 for frames [0, 40), stepping to x = 50 over [40, 50), planted there
+// over [50, 100): the input found the stances in fragments and with clipped ends.
+Track stepping_foot() {
+  Track track;
+  for (int t = 0; t < 100; ++t) {
+    const double s = std::clamp((t - 40) / 10.0, 0.0, 1.0);
+    const double x = 50.0 * (0.5 - 0.5 * std::cos(kPi * s));
+    track.insert(track.end(), {float(x), 8.0f, 0.0f});
+  }
+  return track;
+}
+
+TEST(WidenContacts, GrowsOverTheFilteredStanceAndJoinsFragmentsOfOneStance) {
+  const Track track = stepping_foot();
+  // Noise broke the first stance into [2, 12) and [18, 33), clipped the second to [60, 80).
+  const std::vector<ContactInterval> input{{2, 12}, {18, 33}, {60, 80}};
+  const std::vector<ContactInterval> filtered{{0, 38}, {52, 100}};
+  const auto out = widen_contacts(input, filtered, points(track), 3.4);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].begin, 0);
+  EXPECT_EQ(out[0].end, 38);
+  EXPECT_EQ(out[1].begin, 52);
+  EXPECT_EQ(out[1].end, 100);
+}
+
+TEST(WidenContacts, StopsWhereTheFootMovesPastTheReachAndNeverJoinsTwoSteps) {
+  const Track track = stepping_foot();
+  // Low steps: the filtered motion holds the foot planted through the step itself.
+  const std::vector<ContactInterval> input{{5, 35}, {55, 95}};
+  const std::vector<ContactInterval> filtered{{0, 100}};
+  const auto out = widen_contacts(input, filtered, points(track), 3.4);
+  ASSERT_EQ(out.size(), 2u);
+  // The foot leaves x = 0 by more than 3.4 during the step: each stance grows only to where
+  // it is still within reach of its own pin.
+  for (std::size_t k = 0; k < out.size(); ++k)
+    for (int t = out[k].begin; t < out[k].end; ++t) {
+      const double x = track[std::size_t(t) * 3];
+      EXPECT_LT(std::abs(x - (k == 0 ? 0.0 : 50.0)), 3.4) << "frame " << t;
+    }
+  EXPECT_LE(out[0].end, 45);
+  EXPECT_GE(out[1].begin, 45);
+  EXPECT_EQ(out[0].begin, 0);
+  EXPECT_EQ(out[1].end, 100);
+}
+
+TEST(WidenContacts, AddsNothingTheInputDidNotFindAndKeepsWhatItFound) {
+  const Track track = stepping_foot();
+  const std::vector<ContactInterval> filtered{{0, 38}, {52, 100}};
+  // No input contact: nothing, whatever the filtered motion holds.
+  EXPECT_TRUE(widen_contacts({}, filtered, points(track), 3.4).empty());
+  // No filtered contact: the input as it came, even where the foot moves.
+  const std::vector<ContactInterval> input{{10, 20}, {38, 45}, {70, 80}};
+  const auto out = widen_contacts(input, {}, points(track), 3.4);
+  ASSERT_EQ(out.size(), input.size());
+  for (std::size_t k = 0; k < input.size(); ++k) {
+    EXPECT_EQ(out[k].begin, input[k].begin);
+    EXPECT_EQ(out[k].end, input[k].end);
+  }
+  // Every widened contact holds its input contact, and only frames the filtered motion plants.
+  const std::vector<ContactInterval> some{{10, 20}, {70, 80}};
+  const auto widened = widen_contacts(some, filtered, points(track), 3.4);
+  const auto planted = contact_mask(filtered, 100), kept = contact_mask(some, 100),
+             now = contact_mask(widened, 100);
+  for (int t = 0; t < 100; ++t) {
+    if (kept[std::size_t(t)]) {
+      EXPECT_TRUE(now[std::size_t(t)]) << "frame " << t;
+    }
+    if (now[std::size_t(t)] && !kept[std::size_t(t)]) {
+      EXPECT_TRUE(planted[std::size_t(t)]) << "frame " << t;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mocap
