@@ -22,7 +22,7 @@ std::string_view to_string(JointClass joint_class) {
   return "?";
 }
 
-JointQuality classify_joint(RotationView rotations, int joint) {
+JointQuality classify_joint(RotationView rotations, int joint, std::span<double> steps_out) {
   JointQuality quality;
   const int steps_count = rotations.frames - 1;
   if (steps_count < 1) return quality;
@@ -37,6 +37,7 @@ JointQuality classify_joint(RotationView rotations, int joint) {
     previous = next;
   }
   quality.near_pi_fraction = double(quality.near_pi_steps) / double(steps_count);
+  if (steps_out.size() == steps.size()) std::copy(steps.begin(), steps.end(), steps_out.begin());
 
   quality.median_step = median(steps);
 

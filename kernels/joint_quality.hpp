@@ -16,6 +16,7 @@
 //   rounding; moving    otherwise.
 // Medians are robust to sparse pops: a clip with the spec's impulse noise classifies as its
 // clean version does. A clip of one frame has no steps: every joint is constant.
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -47,6 +48,8 @@ struct JointQuality {
 
 // One entry per joint. Costs one geodesic distance per step and one nth_element per joint.
 std::vector<JointQuality> classify_joints(RotationView rotations);
-JointQuality classify_joint(RotationView rotations, int joint);
+// `steps` (optional, frames - 1 entries): receives the joint's step angles geodesic(q[t], q[t+1]),
+// which the impossible-step test (kernels/motion_split.hpp, StepAngles) reads again.
+JointQuality classify_joint(RotationView rotations, int joint, std::span<double> steps = {});
 
 }  // namespace mocap

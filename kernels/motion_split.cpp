@@ -28,19 +28,23 @@ double MotionSplitParams::pose_step_threshold(double frame_time) const {
   return std::max(min_pose_step, max_pose_speed * frame_time);
 }
 
-std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
-                                                  const MotionSplitParams& params,
-                                                  std::span<const std::uint8_t> skip) {
+namespace {
+
+// The test over step angles from `angle(t, j)`, joint by joint in order for each step.
+template <typename Angle>
+std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle& angle,
+                                             double frame_time, const MotionSplitParams& params,
+                                             std::span<const std::uint8_t> skip) {
   std::vector<ImpossibleStep> steps;
   const double threshold = params.step_threshold(frame_time);
   const double pose_threshold = params.pose_step_threshold(frame_time);
-  for (int t = 0; t + 1 < rotations.frames; ++t) {
+  for (int t = 0; t + 1 < frames; ++t) {
     ImpossibleStep worst{t, -1, 0.0, 0.0};
     double clamped_sum = 0;
     int counted = 0;
-    for (int j = 0; j < rotations.joints; ++j) {
+    for (int j = 0; j < joints; ++j) {
       if (!skip.empty() && skip[std::size_t(j)]) continue;
-      const double d = geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
+      const double d = angle(t, j);
       if (d > worst.angle || worst.joint < 0) {
         worst.joint = j;
         worst.angle = d;
@@ -54,6 +58,27 @@ std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double
     if (worst.angle > threshold || body_jump) steps.push_back(worst);
   }
   return steps;
+}
+
+}  // namespace
+
+std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
+                                                  const MotionSplitParams& params,
+                                                  std::span<const std::uint8_t> skip) {
+  return impossible_steps(
+      rotations.frames, rotations.joints,
+      [&](int t, int j) {
+        return geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
+      },
+      frame_time, params, skip);
+}
+
+std::vector<ImpossibleStep> find_impossible_steps(const StepAngles& angles, double frame_time,
+                                                  const MotionSplitParams& params,
+                                                  std::span<const std::uint8_t> skip) {
+  return impossible_steps(
+      angles.frames, angles.joints, [&](int t, int j) { return angles.at(t, j); }, frame_time,
+      params, skip);
 }
 
 std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps) {

@@ -77,6 +77,21 @@ std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double
                                                   const MotionSplitParams& params,
                                                   std::span<const std::uint8_t> skip = {});
 
+// Every joint's step angles geodesic(q[t][j], q[t+1][j]), [joint][step] (frames - 1 steps a
+// joint): what classify_joint measures, kept so the test below need not measure it again.
+struct StepAngles {
+  std::span<const double> angles;
+  int frames = 0, joints = 0;
+  double at(int step, int joint) const {
+    return angles[std::size_t(joint) * std::size_t(frames - 1) + std::size_t(step)];
+  }
+};
+
+// The same steps from angles already measured (bit for bit what the overload above finds).
+std::vector<ImpossibleStep> find_impossible_steps(const StepAngles& angles, double frame_time,
+                                                  const MotionSplitParams& params,
+                                                  std::span<const std::uint8_t> skip = {});
+
 // Frames [begin, end) between impossible steps (default params) over the joints that `skip`
 // does not mark.
 std::vector<Segment> motion_segments(RotationView rotations, double frame_time,

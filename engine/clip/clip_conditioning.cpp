@@ -79,10 +79,14 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   const int J = rotations.joints;
   const RotationView view{rotations.data, rotations.frames, J};
   // Joint by joint in parallel tasks, like the pop stage below (each writes its own entry).
+  // The step angles the classification measures are kept for the impossible-step test below.
   c.joints.resize(std::size_t(J));
+  const std::size_t steps = std::size_t(std::max(rotations.frames - 1, 0));
+  std::vector<double> step_angles(steps * std::size_t(J));
   tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
     for (int j = range.begin(); j < range.end(); ++j)
-      c.joints[std::size_t(j)] = classify_joint(view, j);
+      c.joints[std::size_t(j)] = classify_joint(
+          view, j, std::span<double>(step_angles).subspan(std::size_t(j) * steps, steps));
   });
   c.garbage.resize(std::size_t(J));
   for (int j = 0; j < J; ++j)
@@ -104,7 +108,9 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   std::vector<int> found(std::size_t(J), 0);
   std::vector<float> repaired;
   std::vector<std::uint8_t> flagged;
-  c.segments = motion_segments(view, frame_time, flipping);
+  const StepAngles angles{step_angles, rotations.frames, J};
+  c.segments = split_segments(
+      rotations.frames, find_impossible_steps(angles, frame_time, MotionSplitParams{}, flipping));
   for (const Segment& seg : c.segments) {
     flagged.assign(std::size_t(seg.frames()) * std::size_t(J), 0);
     const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;

@@ -4,9 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <span>
+#include <vector>
 
 #include "core/quaternion.hpp"
 #include "io/bvh_reader.hpp"
+#include "kernels/joint_quality.hpp"
 #include "kernels/motion_split.hpp"
 #include "tests/test_support.hpp"
 
@@ -201,6 +204,48 @@ TEST(MotionSplit, PoseStepThresholdRisesAtLowFrameRates) {
   bad = {};
   bad.max_pose_speed = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(bad.validate().ok());
+}
+
+// The test from the step angles the joint classification keeps finds the same steps, bit for
+// bit, as the one that measures them itself: on random motion with jumps of one joint, of the
+// whole body and a flipping joint skipped.
+TEST(MotionSplit, StepAnglesFromTheClassificationFindTheSameSteps) {
+  std::mt19937_64 rng(23);
+  const int frames = 300, joints = 12;
+  std::vector<float> data(std::size_t(frames) * joints * 4);
+  std::normal_distribution<double> small(0.0, 0.02);
+  for (int j = 0; j < joints; ++j) {
+    Quat q = test::random_rotation(rng);
+    for (int t = 0; t < frames; ++t) {
+      q = normalized(q * exp(Vec3{small(rng), small(rng), small(rng)}));
+      if (t == 100 && j == 3) q = q * exp(Vec3{2.5, 0, 0});    // one joint jumps
+      if (t == 200) q = q * exp(Vec3{0, 0.6, 0});              // the whole body jumps
+      if (j == 7 && t % 9 == 0) q = q * exp(Vec3{0, 0, 3.1});  // a flipping joint
+      store_quat(q, &data[(std::size_t(t) * joints + std::size_t(j)) * 4]);
+    }
+  }
+  const RotationView view{data.data(), frames, joints};
+  std::vector<double> angles(std::size_t(frames - 1) * joints);
+  for (int j = 0; j < joints; ++j)
+    classify_joint(view, j,
+                   std::span<double>(angles).subspan(std::size_t(j) * (frames - 1), frames - 1));
+  const StepAngles kept{angles, frames, joints};
+  for (double frame_time : {1.0 / 120, 1.0 / 30}) {
+    for (const std::vector<std::uint8_t>& skip :
+         {std::vector<std::uint8_t>{},
+          std::vector<std::uint8_t>{0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0}}) {
+      const auto measured = find_impossible_steps(view, frame_time, MotionSplitParams{}, skip);
+      const auto from_kept = find_impossible_steps(kept, frame_time, MotionSplitParams{}, skip);
+      ASSERT_EQ(measured.size(), from_kept.size());
+      ASSERT_FALSE(measured.empty());
+      for (std::size_t i = 0; i < measured.size(); ++i) {
+        EXPECT_EQ(measured[i].frame, from_kept[i].frame);
+        EXPECT_EQ(measured[i].joint, from_kept[i].joint);
+        EXPECT_EQ(measured[i].angle, from_kept[i].angle);
+        EXPECT_EQ(measured[i].pose_step, from_kept[i].pose_step);
+      }
+    }
+  }
 }
 
 }  // namespace
