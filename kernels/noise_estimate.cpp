@@ -80,10 +80,15 @@ TranslationNoise estimate_translation_noise(TranslationView translations,
     const long period = 2L * (frames - 1);
     for (int t = 0; t < frames; ++t) {
       Vec3 acc;
-      for (int r = -reach; r <= reach; ++r) {
-        long s = ((long(t) + r) % period + period) % period;
-        if (s >= frames) s = period - s;
-        acc += mask[std::size_t(r + reach)] * load_vec3(translations.at(int(s), j));
+      if (t >= reach && t + reach < frames) {  // no mirror needed: no modulo per tap
+        for (int r = -reach; r <= reach; ++r)
+          acc += mask[std::size_t(r + reach)] * load_vec3(translations.at(t + r, j));
+      } else {
+        for (int r = -reach; r <= reach; ++r) {
+          long s = ((long(t) + r) % period + period) % period;
+          if (s >= frames) s = period - s;
+          acc += mask[std::size_t(r + reach)] * load_vec3(translations.at(int(s), j));
+        }
       }
       smooth[std::size_t(t)] = (1.0 / mask_sum) * acc;
     }
