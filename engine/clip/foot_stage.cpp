@@ -47,7 +47,8 @@ std::vector<float> ankle_tracks(const Clip& clip, const std::vector<FootChain>& 
 }
 
 // Contacts [leg] of the ankle tracks; false for a flat skeleton (no height).
-bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs, std::vector<float>& ankles,
+bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs,
+                   const std::vector<float>& ankles,
                    std::vector<std::vector<ContactInterval>>& contacts) {
   FootContactJob job;
   job.feet = {ankles.data(), clip.frames, int(legs.size())};
@@ -60,7 +61,7 @@ bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs, std::ve
 // The input's contacts widened by the filtered motion's (kernels/foot_contacts.hpp,
 // widen_contacts; README "Feet", "Widening").
 void widen_by_filtered(ClipFeet& feet, const Clip& filtered) {
-  std::vector<float> ankles = ankle_tracks(filtered, feet.legs);
+  const std::vector<float> ankles = ankle_tracks(filtered, feet.legs);
   std::vector<std::vector<ContactInterval>> found;
   if (ankles.empty() || !find_contacts(filtered, feet.legs, ankles, found)) return;
   const double reach = kWidenReach * body_height(*filtered.skeleton);
@@ -82,7 +83,7 @@ ClipFeet detect_feet(const Clip& clip) {
   for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
     if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
   if (feet.legs.empty()) return feet;
-  std::vector<float> ankles = ankle_tracks(clip, feet.legs);
+  const std::vector<float> ankles = ankle_tracks(clip, feet.legs);
   if (ankles.empty()) return {};  // checked clips always pass; nothing to lock otherwise
   if (!find_contacts(clip, feet.legs, ankles, feet.contacts)) return {};  // a flat skeleton
   return feet;

@@ -21,9 +21,10 @@ namespace mocap::engine {
 constexpr double kWidenReach = 0.02;
 
 struct ClipFeet {
-  std::vector<FootChain> legs;                         // the skeleton's feet (find_feet)
-  std::vector<std::vector<ContactInterval>> contacts;  // per leg, its ankle's, on the input
-  FootLockStats stats;                                 // of lock_feet
+  std::vector<FootChain> legs;  // the skeleton's feet (find_feet)
+  // Per leg, its ankle's: found on the input, then widened by lock_feet.
+  std::vector<std::vector<ContactInterval>> contacts;
+  FootLockStats stats;  // of lock_feet
   bool locked = false;
 };
 
