@@ -39,6 +39,10 @@ Status ForwardKinematicsJob::validate() const {
       return Status::error("output joint " + std::to_string(j) + " of " + std::to_string(joints));
   if (!output_joints.empty() && !sites.empty())
     return Status::error("sites need every joint: output_joints must be empty");
+  if (!sites.empty() &&
+      (site_positions.frames != rotations.frames || site_positions.joints != int(sites.size()) ||
+       site_positions.data == nullptr))
+    return Status::error("site_positions must be [frames][sites][3]");
   return {};
 }
 

@@ -178,6 +178,10 @@ TEST(ForwardKinematics, ValidateNamesWhatIsWrong) {
   const std::vector<JointSite> sites{{5, {}}};
   fk.sites = sites;
   EXPECT_FALSE(fk.validate().ok());
+  // A site on a real joint still needs somewhere to write its positions.
+  const std::vector<JointSite> real_site{{2, {}}};
+  fk.sites = real_site;
+  EXPECT_NE(fk.validate().message().find("site_positions"), std::string::npos);
 }
 
 }  // namespace
