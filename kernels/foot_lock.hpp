@@ -5,33 +5,34 @@
 //
 // Per leg (hip -> knee -> ankle, optional toe below the ankle), Y up:
 //   Contacts. The frames where the ankle's contact list (kernels/foot_contacts.hpp, found on the
-//   input; the engine widens it first, widen_contacts) holds the ankle, else the frames where the
-//   toe's list (if given) holds the toe; a run of adjacent such frames is one contact. Its pin: the
-//   per-axis median (x, z), over its ankle frames (its toe frames when it has none), of that
-//   point's position in the filtered motion. A toe frame of a contact with ankle frames takes the
-//   offset the ankle had at the frame next to it, so the target does not jump where the heel lifts
-//   or lands. Target. The ankle's target is its filtered position plus an offset D(t): pin -
-//   anchor(t) inside a contact (anchor: the ankle, or the toe for a toe frame, then D moves the
-//   ankle so that the toe sits on its pin with the filtered foot orientation); between two contacts
-//   closer than 2 B frames, D goes linearly from one to the other; otherwise it fades in over the B
-//   frames before a contact and out over the B frames after it with a smoothstep s(x) = x^2 (3 -
-//   2x) (B = blend_time / frame_time, at least 1). D = 0 elsewhere, where nothing is touched. Only
-//   D's horizontal part (x, z) is applied: sliding is horizontal, and a pin's height would change
-//   the leg's length, which near a straight knee turns the knee fast (the knee angle per unit of
-//   length grows as 1 / sin of the knee angle). Measured on the shared clips: pinning all three
-//   axes made the peak knee speed up to 3.3x the input's, horizontal only 1.5x. IK (Holden's
-//   analytic two-joint IK). Hip a, knee b, ankle c, target T, thigh l1 = |b - a|, shin l2 = |c -
-//   b|, d = |T - a| clamped to [|l1 - l2|, L], L = max(max_reach (l1 + l2), |c - a|) capped at l1 +
-//   l2. The knee turns about the filtered bend-plane normal n = (b - a) x (c - a) / |.| (the last
-//   frame's when the leg is straight) from its interior angle theta0 = angle(a - b, c - b) to
-//   theta1 = acos((l1^2 + l2^2 - d^2) / (2 l1 l2)): Q_k = Exp((theta0 - theta1) n); then the hip
-//   swings the new ankle onto T by the shortest arc Q_h. Global rotations: R_hip' = Q_h R_hip,
-//   R_knee' = Q_h Q_k R_knee, R_ankle' = R_ankle (the foot's global orientation is kept, so the
-//   toe's too), stored as local rotations of hip, knee and ankle, each on the hemisphere of the
-//   rotation it replaces. Reach. Where |T - a| > L for a planted leg, the root (the leg's top
-//   ancestor, when it carries a translation) is lowered along Y just enough for the hip to reach:
-//   a_y' = T_y + sqrt(L^2 - h^2), h the horizontal hip-target distance; by the largest drop of its
-//   legs. Knee speed. Near a straight leg the knee angle per unit of hip-target distance grows as
+//   input) holds the ankle, else the frames where the toe's list (if given) holds the toe; a run of
+//   adjacent such frames is one contact. Its pin: the per-axis median (x, z), over its ankle frames
+//   (its toe frames when it has none), of that point's position in the filtered motion. A toe frame
+//   of a contact with ankle frames takes the offset the ankle had at the frame next to it, so the
+//   target does not jump where the heel lifts or lands.
+//   Target. The ankle's target is its filtered position plus an offset D(t): pin - anchor(t)
+//   inside a contact (anchor: the ankle, or the toe for a toe frame, then D moves the ankle so that
+//   the toe sits on its pin with the filtered foot orientation); between two contacts closer than
+//   2 B frames, D goes linearly from one to the other; otherwise it fades in over the B frames
+//   before a contact and out over the B frames after it with a smoothstep s(x) = x^2 (3 - 2x)
+//   (B = blend_time / frame_time, at least 1). D = 0 elsewhere, where nothing is touched.
+//   Only D's horizontal part (x, z) is applied: sliding is horizontal, and a pin's height would
+//   change the leg's length, which near a straight knee turns the knee fast (the knee angle per
+//   unit of length grows as 1 / sin of the knee angle). Measured on the shared clips: pinning
+//   all three axes made the peak knee speed up to 3.3x the input's, horizontal only 1.5x.
+//   IK (Holden's analytic two-joint IK). Hip a, knee b, ankle c, target T, thigh l1 = |b - a|,
+//   shin l2 = |c - b|, d = |T - a| clamped to [|l1 - l2|, L], L = max(max_reach (l1 + l2),
+//   |c - a|) capped at l1 + l2. The knee turns about the filtered bend-plane normal
+//   n = (b - a) x (c - a) / |.| (the last frame's when the leg is straight) from its interior
+//   angle theta0 = angle(a - b, c - b) to theta1 = acos((l1^2 + l2^2 - d^2) / (2 l1 l2)):
+//   Q_k = Exp((theta0 - theta1) n); then the hip swings the new ankle onto T by the shortest arc
+//   Q_h. Global rotations: R_hip' = Q_h R_hip, R_knee' = Q_h Q_k R_knee, R_ankle' = R_ankle (the
+//   foot's global orientation is kept, so the toe's too), stored as local rotations of hip, knee
+//   and ankle, each on the hemisphere of the rotation it replaces.
+//   Reach. Where |T - a| > L for a planted leg, the root (the leg's top ancestor, when it carries
+//   a translation) is lowered along Y just enough for the hip to reach: a_y' = T_y +
+//   sqrt(L^2 - h^2), h the horizontal hip-target distance; by the largest drop of its legs.
+//   Knee speed. Near a straight leg the knee angle per unit of hip-target distance grows as
 //   1 / sin(theta), so a pin the filtered ankle moves away from (at a contact's end the filtered
 //   ankle already leaves: the filter spreads the lift-off in time) asks the knee to catch up
 //   with the filter in a frame or two: a pop (measured: up to 1.7x the input's peak knee speed).
