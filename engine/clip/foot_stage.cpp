@@ -9,9 +9,10 @@
 
 namespace mocap::engine {
 
-std::vector<float> joint_positions(const Clip& clip) {
+std::vector<float> joint_positions(const Clip& clip, std::span<const int> joints) {
   const Skeleton& sk = *clip.skeleton;
-  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(sk.joint_count()) * 3);
+  const int outputs = joints.empty() ? sk.joint_count() : int(joints.size());
+  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(outputs) * 3);
   const std::vector<std::uint8_t> translated = sk.translated_mask();
   ForwardKinematicsJob fk;
   fk.parents = sk.parents;
@@ -19,31 +20,19 @@ std::vector<float> joint_positions(const Clip& clip) {
   fk.rotations = clip.rotation_view();
   fk.translations = clip.translation_view();
   fk.translated_joints = translated;
-  fk.positions = {positions.data(), clip.frames, sk.joint_count()};
+  fk.output_joints = joints;
+  fk.positions = {positions.data(), clip.frames, outputs};
   if (!fk.run().ok()) positions.clear();
   return positions;
 }
 
 namespace {
 
-// The legs' ankles' global positions [F][legs][3] by forward kinematics; empty when the clip's
-// shapes do not agree.
+// The legs' ankles' global positions [F][legs][3]; empty when the clip's shapes do not agree.
 std::vector<float> ankle_tracks(const Clip& clip, const std::vector<FootChain>& legs) {
-  const Skeleton& sk = *clip.skeleton;
   std::vector<int> ankles;
   for (const FootChain& leg : legs) ankles.push_back(leg.ankle);
-  std::vector<float> positions(std::size_t(clip.frames) * ankles.size() * 3);
-  const std::vector<std::uint8_t> translated = sk.translated_mask();
-  ForwardKinematicsJob fk;
-  fk.parents = sk.parents;
-  fk.offsets = sk.offsets;
-  fk.rotations = clip.rotation_view();
-  fk.translations = clip.translation_view();
-  fk.translated_joints = translated;
-  fk.output_joints = ankles;
-  fk.positions = {positions.data(), clip.frames, int(ankles.size())};
-  if (!fk.run().ok()) positions.clear();
-  return positions;
+  return joint_positions(clip, ankles);
 }
 
 // Contacts [leg] of the ankle tracks; false for a flat skeleton (no height).

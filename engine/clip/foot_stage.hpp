@@ -30,7 +30,9 @@ struct ClipFeet {
 
 // Every joint's global position [F][J][3] by forward kinematics (the position channels where the
 // skeleton has them, else the offsets); empty when the clip's shapes do not agree.
-std::vector<float> joint_positions(const Clip& clip);
+// `joints` (optional): only these joints' positions, [F][K][3] in this order, at the cost of
+// their chains (ForwardKinematicsJob::output_joints).
+std::vector<float> joint_positions(const Clip& clip, std::span<const int> joints = {});
 
 // The legs of the clip's skeleton and their contacts in `clip` (global ankle positions by
 // forward kinematics; the body height from the rest pose).

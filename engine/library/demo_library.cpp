@@ -68,6 +68,18 @@ struct Pose {
 
 using PoseFunction = std::function<void(double time, const Skeleton&, Pose&)>;
 
+// The local rotation of a joint in the pose (angles in the skeleton's order for the joint).
+Quat local_rotation(const Skeleton& s, const Pose& p, int joint) {
+  const RotationOrder order = s.rotation_order(joint);
+  EulerAngles e;
+  for (int i = 0; i < 3; ++i) {
+    const int axis = order_axis(order, i);
+    const Vec3& a = p.angles_deg[std::size_t(joint)];
+    e[i] = (axis == 0 ? a.x : axis == 1 ? a.y : a.z) * kDeg;
+  }
+  return euler_to_quat(order, e);
+}
+
 Clip make_clip(std::shared_ptr<const Skeleton> skeleton, double fps, int frames,
                const PoseFunction& pose_at) {
   Clip clip;
@@ -83,14 +95,7 @@ Clip make_clip(std::shared_ptr<const Skeleton> skeleton, double fps, int frames,
     pose.root = skeleton->offsets[0];
     pose_at(t / fps, *skeleton, pose);
     for (int j = 0; j < J; ++j) {
-      const RotationOrder order = skeleton->rotation_order(j);
-      EulerAngles e;
-      for (int i = 0; i < 3; ++i) {
-        const int axis = order_axis(order, i);
-        const Vec3& a = pose.angles_deg[j];
-        e[i] = (axis == 0 ? a.x : axis == 1 ? a.y : a.z) * kDeg;
-      }
-      store_quat(euler_to_quat(order, e), clip.rotation_span().at(t, j));
+      store_quat(local_rotation(*skeleton, pose, j), clip.rotation_span().at(t, j));
       store_vec3(j == 0 ? pose.root : skeleton->offsets[j], clip.translation_span().at(t, j));
     }
   }
@@ -132,18 +137,6 @@ void wave(double time, const Skeleton& s, Pose& p) {
   set("RightForeArm", {0, 100, 0});
   set("RightHand", {0, 0, 25 * std::sin(2 * kPi * 3.0 * time)});
   set("Head", {0, 15 * std::sin(0.5 * time), 0});
-}
-
-// The local rotation of a joint in the pose (angles in the skeleton's order for the joint).
-Quat local_rotation(const Skeleton& s, const Pose& p, int joint) {
-  const RotationOrder order = s.rotation_order(joint);
-  EulerAngles e;
-  for (int i = 0; i < 3; ++i) {
-    const int axis = order_axis(order, i);
-    const Vec3& a = p.angles_deg[std::size_t(joint)];
-    e[i] = (axis == 0 ? a.x : axis == 1 ? a.y : a.z) * kDeg;
-  }
-  return euler_to_quat(order, e);
 }
 
 // A joint's position relative to the root's, by forward kinematics of the pose.
