@@ -10,6 +10,7 @@
 #include "core/quaternion.hpp"
 #include "kernels/bilateral.hpp"
 #include "kernels/foot_lock.hpp"
+#include "kernels/forward_kinematics.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
@@ -116,6 +117,49 @@ BENCHMARK(BM_PopRepair)
     ->Args({1, 31, 1000, 0})
     ->Args({1, 31, 1000, 1})
     ->Unit(benchmark::kMillisecond);
+
+// Forward kinematics of the bof fixture's motion on a random 31-joint tree with a translated
+// root, 1000 frames: every joint (as the motion guard and eval measure positions), or the two
+// deepest joints' chains only (output_joints, as the foot stage reads the ankles). Args:
+// implementation (0 reference, 1 fast), all joints (1) or two chains (0).
+void BM_ForwardKinematics(benchmark::State& state) {
+  const int frames = 1000, joints = 31;
+  Fixture f(frames, joints);
+  std::mt19937_64 rng(3);
+  std::vector<int> parents{-1};
+  std::vector<Vec3> offsets{{0, 0, 0}};
+  for (int j = 1; j < joints; ++j) {
+    parents.push_back(j < 4 ? j - 1 : int(rng() % std::uint64_t(j)));
+    offsets.push_back({0.1, -0.2, 0.05});
+  }
+  std::vector<float> translations(std::size_t(frames) * joints * 3, 1.0f);
+  std::vector<std::uint8_t> translated(joints, 0);
+  translated[0] = 1;
+  const std::vector<int> two_chains{joints - 1, joints - 2};
+  const bool all = state.range(1) != 0;
+  std::vector<float> positions(std::size_t(frames) * (all ? joints : 2) * 3);
+  ForwardKinematicsJob fk;
+  fk.parents = parents;
+  fk.offsets = offsets;
+  fk.rotations = {f.in.data(), frames, joints};
+  fk.translations = {translations.data(), frames, joints};
+  fk.translated_joints = translated;
+  if (!all) fk.output_joints = two_chains;
+  fk.positions = {positions.data(), frames, all ? joints : 2};
+  fk.implementation = implementation_of(state);
+  for (auto _ : state) {
+    if (!fk.run().ok()) state.SkipWithError("forward kinematics failed");
+    benchmark::DoNotOptimize(positions.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_ForwardKinematics)
+    ->ArgNames({"fast", "all"})
+    ->Args({0, 1})
+    ->Args({1, 1})
+    ->Args({0, 0})
+    ->Args({1, 0})
+    ->Unit(benchmark::kMicrosecond);
 
 // Foot locking (README "Feet") on the bof fixture's motion, 31 joints x 1000 frames: a chain
 // skeleton with two legs (hip, knee, ankle, toe), each with four contacts of 150 frames (60 % of

@@ -15,6 +15,7 @@
 #include "core/quaternion.hpp"
 #include "core/status.hpp"
 #include "core/tensor.hpp"
+#include "kernels/implementation.hpp"
 
 namespace mocap {
 
@@ -40,8 +41,12 @@ struct ForwardKinematicsJob {
   std::span<const int> output_joints;
   TranslationSpan positions;       // [F][J][3] (or [F][K][3]), written: global joint positions
   TranslationSpan site_positions;  // [F][S][3], written (may be empty when there are no sites)
+  // reference: the scalar path, frame by frame, joint by joint. fast: the same operations with
+  // chunks of frames as vector lanes (kernels/simd/forward_kinematics_simd.hpp); bit-identical.
+  Implementation implementation = Implementation::fast;
 
-  // Sizes agree, parents precede their children, sites name existing joints.
+  // Sizes agree, parents precede their children, sites name existing joints, the implementation
+  // is known.
   Status validate() const;
   Status run() const;
 };

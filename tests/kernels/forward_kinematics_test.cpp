@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
+#include "io/bvh_reader.hpp"
 #include "tests/test_support.hpp"
 
 namespace mocap {
@@ -157,6 +159,91 @@ TEST(ForwardKinematics, OutputJointsAreTheFullRunsBitForBit) {
   fk.output_joints = outside;
   fk.positions = {some.data(), frames, 1};
   EXPECT_NE(fk.validate().message().find("output joint 14"), std::string::npos);
+}
+
+// Runs both implementations of `fk` (its outputs replaced) and counts the floats that differ in
+// any bit, positions and sites; each output starts from a different fill, so a value either path
+// fails to write shows up too.
+long differing_bits(ForwardKinematicsJob fk) {
+  const std::size_t frames = std::size_t(fk.rotations.frames);
+  const std::size_t outputs =
+      fk.output_joints.empty() ? fk.parents.size() : fk.output_joints.size();
+  std::vector<float> positions[2], sites[2];
+  for (int k = 0; k < 2; ++k) {
+    positions[k].assign(frames * outputs * 3, k == 0 ? -1.0f : 2.0f);
+    sites[k].assign(frames * fk.sites.size() * 3, k == 0 ? -1.0f : 2.0f);
+    fk.implementation = k == 0 ? Implementation::reference : Implementation::fast;
+    fk.positions = {positions[k].data(), int(frames), int(outputs)};
+    fk.site_positions = {sites[k].data(), int(frames), int(fk.sites.size())};
+    if (!fk.run().ok()) return -1;
+  }
+  long differ = 0;
+  for (int part = 0; part < 2; ++part) {
+    const std::vector<float>(&values)[2] = part == 0 ? positions : sites;
+    for (std::size_t i = 0; i < values[0].size(); ++i)
+      differ += std::memcmp(&values[0][i], &values[1][i], sizeof(float)) != 0;
+  }
+  return differ;
+}
+
+// The fast path does the reference's operations in its order (kernels/simd/
+// forward_kinematics_simd.hpp): the same bits for random skeletons, clip lengths around the
+// chunk and vector sizes, translated joints (a root and an inner joint), sites, output joints,
+// and offsets with zero components (the zero products decide a zero's sign).
+TEST(ForwardKinematics, FastPathIsTheReferenceBitForBit) {
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (const int frames : {1, 7, 8, 63, 64, 65, 200}) {
+    const int joints = 3 + int(rng() % 30);
+    std::vector<int> parents{-1};
+    std::vector<Vec3> offsets{{0, 0, 0}};
+    for (int j = 1; j < joints; ++j) {
+      parents.push_back(j % 5 == 0 ? -1 : int(rng() % std::uint64_t(j)));  // several roots
+      offsets.push_back(j % 3 == 0 ? Vec3{0, u(rng), -0.0} : Vec3{u(rng), u(rng), u(rng)});
+    }
+    std::vector<float> rotations(std::size_t(frames) * std::size_t(joints) * 4);
+    std::vector<float> translations(std::size_t(frames) * std::size_t(joints) * 3);
+    for (int i = 0; i < frames * joints; ++i) {
+      store_quat(i % 11 == 0 ? Quat{} : test::random_rotation(rng), &rotations[std::size_t(i) * 4]);
+      store_vec3({40 * u(rng), 40 * u(rng), 40 * u(rng)}, &translations[std::size_t(i) * 3]);
+    }
+    std::vector<std::uint8_t> translated(std::size_t(joints), 0);
+    translated[0] = translated[std::size_t(joints) / 2] = 1;
+    const std::vector<JointSite> sites{{joints - 1, {0.5, 0, -2}}, {0, {1, 1, 1}}};
+    ForwardKinematicsJob fk;
+    fk.parents = parents;
+    fk.offsets = offsets;
+    fk.rotations = {rotations.data(), frames, joints};
+    fk.translations = {translations.data(), frames, joints};
+    const std::string what =
+        std::to_string(frames) + " frames, " + std::to_string(joints) + " joints";
+    EXPECT_EQ(differing_bits(fk), 0) << what << ", offsets only";
+    fk.translated_joints = translated;
+    fk.sites = sites;
+    EXPECT_EQ(differing_bits(fk), 0) << what << ", translated joints and sites";
+    fk.sites = {};
+    const std::vector<int> wanted{joints - 1, 0, joints / 2};
+    fk.output_joints = wanted;
+    EXPECT_EQ(differing_bits(fk), 0) << what << ", output joints";
+  }
+}
+
+// The same on the shared captures (31 joints, a translated root, thousands of frames).
+TEST(ForwardKinematics, FastPathIsTheReferenceBitForBitOnRealClips) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  for (const auto& path : test::shared_bvh_files()) {
+    const io::BvhReadResult r = io::read_bvh(path);
+    ASSERT_TRUE(r.clip) << path;
+    const Clip& clip = *r.clip;
+    const std::vector<std::uint8_t> translated = clip.skeleton->translated_mask();
+    ForwardKinematicsJob fk;
+    fk.parents = clip.skeleton->parents;
+    fk.offsets = clip.skeleton->offsets;
+    fk.rotations = clip.rotation_view();
+    fk.translations = clip.translation_view();
+    fk.translated_joints = translated;
+    EXPECT_EQ(differing_bits(fk), 0) << path;
+  }
 }
 
 TEST(ForwardKinematics, ValidateNamesWhatIsWrong) {
