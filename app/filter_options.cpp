@@ -94,8 +94,9 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
       ->group("Cleaning");
   cmd.add_option("--garbage-joints", garbage_joints,
                  "joints that are constant, move only by float rounding or flip by ~pi "
-                 "(uncaptured): keep them as they came (and out of nlpm's pose distance), or "
-                 "filter them like the others (ignored with --pops off)")
+                 "(uncaptured): keep them (out of nlpm's pose distance; constant and rounding "
+                 "ones as they came, flipping ones filtered between their flips, which stay), "
+                 "or filter them like the others (ignored with --pops off)")
       ->check(CLI::IsMember({"keep", "filter"}))
       ->capture_default_str()
       ->group("Cleaning");

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/quaternion.hpp"
+#include "engine/clip/flip_pieces.hpp"
 #include "engine/run/run_summary.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/pop_repair.hpp"
@@ -71,6 +72,39 @@ void run_joints_in_parallel(const PopRepairJob& job) {
   if (!error.empty()) throw std::runtime_error("pop repair: " + error);
 }
 
+// Flipping joints' pops, found and repaired piece by piece between the joint's flips
+// (clip/flip_pieces.hpp): to the test over the whole curve every flip is a pop, inside a piece
+// the joint moves as captured joints do. Writes the repaired samples and their flags.
+void repair_between_flips(RotationView rotations, std::span<const std::uint8_t> flipping,
+                          const PopRepairParams& params, std::span<std::uint8_t> flagged,
+                          std::span<int> found, std::span<float> repaired) {
+  const int J = rotations.joints;
+  std::vector<Quat> curve, out;
+  std::vector<std::uint8_t> flags;
+  for (int j = 0; j < J; ++j) {
+    if (!flipping[std::size_t(j)]) continue;
+    for (const Segment& piece : flip_pieces(rotations, j)) {
+      if (piece.frames() < kPopRepairMinFrames) continue;
+      const std::size_t n = std::size_t(piece.frames());
+      curve.resize(n);
+      for (std::size_t t = 0; t < n; ++t)
+        curve[t] = load_quat(rotations.at(piece.begin + int(t), j));
+      flags.assign(n, 0);
+      const int count = find_pops(curve, params, flags);
+      if (count == 0) continue;
+      out.resize(n);
+      repair_pops(curve, flags, out);
+      for (std::size_t t = 0; t < n; ++t) {
+        if (!flags[t]) continue;
+        const std::size_t sample = (std::size_t(piece.begin) + t) * std::size_t(J) + std::size_t(j);
+        flagged[sample] = 1;
+        store_quat(out[t], &repaired[sample * 4]);
+      }
+      found[std::size_t(j)] += count;
+    }
+  }
+}
+
 }  // namespace
 
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
@@ -95,7 +129,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   if (mode == PopsMode::off || J == 0) return c;
 
   // Constant and rounding-only joints are repaired too (a pop on a still joint is the easiest to
-  // tell); a flipping joint is all pops to the test and is left as it came.
+  // tell); a flipping joint is all pops to the test over its whole curve: where the stage
+  // repairs without the skeleton test, it is tested between its flips instead.
   std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
   for (int j = 0; j < J; ++j)
     flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
@@ -124,6 +159,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     job.flagged_samples = flagged;
     job.repair = c.repaired && !skeleton_test;
     run_joints_in_parallel(job);
+    if (job.repair)
+      repair_between_flips(job.io.rotations, flipping, job.params, flagged, found, repaired);
     if (skeleton_test) {
       PopSkeletonJob skeleton;
       skeleton.rotations = {rotations.data + offset, seg.frames(), J};
@@ -188,7 +225,8 @@ void ConditioningTally::write_to(nlohmann::json& summary) const {
   summary["garbage_joints"] = {
       {"joints", garbage_joints},
       {"clips", clips_with_garbage},
-      {"handling", keep_garbage ? "kept as they came" : "filtered like the others"},
+      {"handling", keep_garbage ? "kept (flipping joints filtered between their flips)"
+                                : "filtered like the others"},
       {"by_clip", garbage}};
 }
 

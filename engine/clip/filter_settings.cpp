@@ -215,6 +215,16 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
       r.noisy_positions = has_noisy_positions(context.translation_noise(), context.body_height);
   }
   r.settings = resolve_parameters(r.settings, context, r.noisy_positions);
+  if (!r.kept_joints.empty()) {
+    std::span<const JointQuality> q = qualities();
+    r.flip_joints.assign(r.kept_joints.size(), 0);
+    bool any = false;
+    for (std::size_t j = 0; j < q.size() && j < r.kept_joints.size(); ++j) {
+      r.flip_joints[j] = r.kept_joints[j] && q[j].joint_class == JointClass::flipping;
+      any = any || r.flip_joints[j];
+    }
+    if (!any) r.flip_joints.clear();
+  }
   if (settings.split_impossible) {
     // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
     if (known.segments) {

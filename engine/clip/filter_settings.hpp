@@ -122,7 +122,8 @@ struct FilterSettings {
   // rounding-only, flipping) kept as they came and out of nlpm's pose distance. pops off turns
   // both off: the spec's filter exactly, on every joint.
   PopsMode pops = PopsMode::off;
-  bool keep_garbage_joints = true;  // --garbage-joints keep|filter (with pops detect|repair)
+  // --garbage-joints keep|filter (with pops detect|repair); keep: flipping joints between flips.
+  bool keep_garbage_joints = true;
   // After the filter (not for `none`): pin the planted feet, contacts found on the input
   // (engine/clip/foot_stage.hpp). --feet lock|off; lock by default with --method auto only.
   bool lock_feet = false;
@@ -190,6 +191,9 @@ struct ResolvedSettings {
   // Joints whose samples are copied as they came (garbage joints), one entry per joint; and the
   // joints nlpm's pose distance looks at (empty: all).
   std::vector<std::uint8_t> kept_joints, distance_joints;
+  // Of the kept joints, the flipping ones, then filtered between their flips (one entry per
+  // joint, or empty: none; clip/flip_pieces.hpp).
+  std::vector<std::uint8_t> flip_joints;
   // With split_impossible: the clip's segments between impossible steps (empty: none found).
   std::vector<Segment> segments;
 };
@@ -207,7 +211,8 @@ struct ClipFacts {
 
 // `garbage` (empty, or one entry per joint, nonzero = garbage) comes from the clip's
 // conditioning: garbage joints stay out of the noise estimate and nlpm's distance and, with
-// keep_garbage_joints, are copied as they came.
+// keep_garbage_joints, are copied as they came, the flipping ones then filtered between their
+// flips (flip_joints).
 ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& clip,
                                   std::span<const std::uint8_t> garbage = {},
                                   const ClipFacts& known = {});

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "engine/clip/flip_pieces.hpp"
 #include "engine/clip/methods.hpp"
 
 namespace mocap::engine {
@@ -51,11 +52,7 @@ Status run_shard(const ResolvedSettings& resolved, const Clip& input, Clip& outp
   // (the whole clip when it was not split).
   const std::vector<Segment> whole{{0, input.frames}};
   const std::vector<Segment>& segments = resolved.segments.empty() ? whole : resolved.segments;
-  Status status;
-  for (const Segment& seg : segments) {
-    const int begin = std::max(seg.begin, shard.frame_begin);
-    const int end = std::min(seg.end, shard.frame_end);
-    if (begin >= end || !status.ok()) continue;
+  const auto segment_io = [&](const Segment& seg, int begin, int end) {
     const std::size_t row = std::size_t(seg.begin) * std::size_t(J);
     MotionIO io;
     io.frame_time = input.frame_time;
@@ -68,11 +65,28 @@ Status run_shard(const ResolvedSettings& resolved, const Clip& input, Clip& outp
     io.joint_end = shard.joint_end;
     io.frame_begin = begin - seg.begin;
     io.frame_end = end - seg.begin;
-    status = run_method(s, io, resolved.distance_joints);
+    return io;
+  };
+  Status status;
+  for (const Segment& seg : segments) {
+    const int begin = std::max(seg.begin, shard.frame_begin);
+    const int end = std::min(seg.end, shard.frame_end);
+    if (begin >= end || !status.ok()) continue;
+    status = run_method(s, segment_io(seg, begin, end), resolved.distance_joints);
   }
-  // Garbage joints as they came (after the filter: nlpm writes whole poses).
+  // Garbage joints as they came (after the filter: nlpm writes whole poses); flipping joints then
+  // filtered between their flips (clip/flip_pieces.hpp).
   for (int j = shard.joint_begin; j < shard.joint_end && !resolved.kept_joints.empty(); ++j)
     if (resolved.kept_joints[std::size_t(j)]) copy_samples(input, output, j, j + 1, shard);
+  for (int j = shard.joint_begin; j < shard.joint_end && !resolved.flip_joints.empty(); ++j) {
+    if (!resolved.flip_joints[std::size_t(j)]) continue;
+    for (const Segment& seg : segments) {
+      const int begin = std::max(seg.begin, shard.frame_begin);
+      const int end = std::min(seg.end, shard.frame_end);
+      if (begin >= end || !status.ok()) continue;
+      status = filter_between_flips(s, segment_io(seg, begin, end), j, resolved.distance_joints);
+    }
+  }
   return status;
 }
 

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "engine/clip/filter_settings.hpp"
+#include "engine/clip/flip_pieces.hpp"
 #include "engine/clip/methods.hpp"
 #include "kernels/noise_estimate.hpp"
 
@@ -25,8 +26,9 @@ std::string automatic_rule(EvalMethod method) {
 
 namespace {
 
+// `ran` (when the method filtered) receives the settings it ran with.
 Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
-                   nlohmann::json* resolved) {
+                   nlohmann::json* resolved, std::optional<FilterSettings>& ran) {
   nlohmann::json used = nlohmann::json::object();
   auto done = [&](Status s) {
     if (resolved) *resolved = used;
@@ -67,6 +69,7 @@ Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob&
     io.translated_joints = job.translated_joints;
   }
   const Status s = run_method(settings, io, job.distance_joints);
+  ran = settings;
   if (asked->method != Method::automatic) {
     used = variant.used(settings);
     return done(s);
@@ -86,8 +89,10 @@ Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob&
 
 Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
                       nlohmann::json* resolved) {
-  const Status s = run_variant(method, point, job, resolved);
-  // Garbage joints as they came, as the engine keeps them (run_shard).
+  std::optional<FilterSettings> ran;
+  Status s = run_variant(method, point, job, resolved, ran);
+  // Garbage joints as they came, flipping ones then between their flips, as the engine does
+  // (run_shard).
   for (std::size_t j = 0; s && j < job.kept_joints.size(); ++j) {
     if (!job.kept_joints[j]) continue;
     for (int t = 0; t < job.noisy.frames; ++t) {
@@ -97,6 +102,14 @@ Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJ
         std::memcpy(job.output_translations.at(t, int(j)), job.translations.at(t, int(j)),
                     3 * sizeof(float));
     }
+  }
+  for (std::size_t j = 0; s && ran && j < job.flip_joints.size(); ++j) {
+    if (!job.flip_joints[j]) continue;
+    MotionIO io;
+    io.frame_time = job.frame_time;
+    io.rotations = job.noisy;
+    io.filtered_rotations = job.output;
+    s = filter_between_flips(*ran, io, int(j), job.distance_joints);
   }
   return s;
 }

@@ -28,6 +28,9 @@ struct SegmentJob {
   // Optional, one entry per joint: joints copied as they came (garbage), and the joints nlpm's
   // pose distance looks at (empty: all).
   std::span<const std::uint8_t> kept_joints, distance_joints;
+  // Optional, one entry per joint: of the kept joints, the flipping ones, then filtered between
+  // their flips (clip/flip_pieces.hpp).
+  std::span<const std::uint8_t> flip_joints;
   // Optional: the segment's translations in and out, and the joints with position channels.
   TranslationView translations;
   TranslationSpan output_translations;

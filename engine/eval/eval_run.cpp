@@ -142,6 +142,7 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
     if (any_garbage) {
       job.kept_joints = noisy.garbage;
       job.distance_joints = distance;
+      job.flip_joints = noisy.flipping;
     }
     nlohmann::json used;
     if (Status st = filter_segment(method, point, job, resolved ? &used : nullptr); !st)
@@ -214,6 +215,8 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
             PopsMode::automatic, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
             clip.clean.frame_time, clip.clean.skeleton->parents);
         noisy.garbage = cond.garbage;
+        for (const JointQuality& q : cond.joints)
+          noisy.flipping.push_back(q.joint_class == JointClass::flipping ? 1 : 0);
         noisy.pops = cond.pop_count();
         const std::size_t J = std::size_t(clip.clean.joints());
         auto moved = [&](const std::vector<float>& rotations, std::size_t sample) {

@@ -53,7 +53,8 @@ struct NoisyClip {
   std::vector<float> repaired;
   std::vector<double> repaired_sigma_hats;
   std::vector<std::uint8_t> garbage;
-  std::size_t pops = 0;  // samples the repair replaced
+  std::vector<std::uint8_t> flipping;  // per joint: 1 = flipping (garbage, filtered between flips)
+  std::size_t pops = 0;                // samples the repair replaced
   // Against the clean clip: samples the noise moved by more than kPoppedAngle (the spec's pops
   // are 0.3-1 rad), how many of them the pop stage flagged, how many flags fell on other samples
   // (false repairs), and how many popped samples stay that far from the clean after the stage.

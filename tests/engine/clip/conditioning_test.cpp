@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <random>
 
 #include "core/quaternion.hpp"
 #include "engine/clip/clip_conditioning.hpp"
@@ -93,8 +94,45 @@ TEST(Conditioning, RepairsPopsAndFindsGarbageJointsAt120Fps) {
   EXPECT_EQ(c.pops[kPopped], int(pops.size()));
   EXPECT_EQ(c.pop_count(), pops.size());
   for (int t : pops) EXPECT_GT(error_at(before, clip, t, kPopped), 0.5) << "frame " << t;
-  // The flipping joint is left bit for bit as it came.
+  // The flipping joint (constant between flips, no pop) is left bit for bit as it came.
   EXPECT_EQ(first_changed_frame(clip, before, kFlipping), -1);
+}
+
+// A flipping joint that moves between its flips (every 40 frames) with pops inside its pieces:
+// at 120 fps the stage finds and repairs them piece by piece, and no flip counts as a pop.
+TEST(Conditioning, PopsOfAFlippingJointAreRepairedBetweenItsFlips) {
+  Clip clip = test_clip(1, nullptr);
+  const int J = clip.joints();
+  std::mt19937_64 rng(17);
+  const std::vector<float> motion = test::random_motion(rng, clip.frames, 1, 0.4);
+  const Quat flip = exp(Vec3{3.04, 0, 0});
+  for (int t = 0; t < clip.frames; ++t) {
+    const Quat q = load_quat(&motion[std::size_t(t) * 4]);
+    store_quat((t / 40) % 2 ? q * flip : q, &clip.rotations[(std::size_t(t) * J + kFlipping) * 4]);
+  }
+  const std::vector<int> popped{15, 57, 58, 100};
+  for (int t : popped) {
+    float* q = &clip.rotations[(std::size_t(t) * J + kFlipping) * 4];
+    store_quat(load_quat(q) * exp(Vec3{0, 0.6, 0.3}), q);
+  }
+  make_hemisphere_continuous(clip.rotation_span());
+  const Clip before = clip;
+  const ClipConditioning c =
+      engine::condition_rotations(PopsMode::automatic, clip.rotation_span(), clip.frame_time);
+  ASSERT_EQ(to_string(c.joints[kFlipping].joint_class), "flipping");
+  EXPECT_EQ(c.pops[kFlipping], int(popped.size()));
+  for (int t : popped) {
+    EXPECT_GT(error_at(before, clip, t, kFlipping), 0.5) << "frame " << t;
+    const Quat truth = load_quat(&motion[std::size_t(t) * 4]) * ((t / 40) % 2 ? flip : Quat{});
+    EXPECT_LT(geodesic(load_quat(&clip.rotations[(std::size_t(t) * J + kFlipping) * 4]), truth),
+              0.05)
+        << "frame " << t;
+  }
+  // Everything else on the joint as it came: the flips included.
+  for (int t = 0; t < clip.frames; ++t) {
+    if (std::find(popped.begin(), popped.end(), t) != popped.end()) continue;
+    EXPECT_EQ(error_at(before, clip, t, kFlipping), 0.0) << "frame " << t;
+  }
 }
 
 TEST(Conditioning, RepairedPopsLandOnTheMotion) {
@@ -155,6 +193,11 @@ TEST(Conditioning, GarbageJointsAreKeptAsTheyCameAndLeftOutOfNlpmsDistance) {
   ASSERT_EQ(resolved.kept_joints.size(), std::size_t(clip.joints()));
   EXPECT_EQ(resolved.kept_joints[kFlipping], 1);
   EXPECT_EQ(resolved.distance_joints[kFlipping], 0);
+  // The flipping joint is then filtered between its flips (clip/flip_pieces.hpp): here it holds
+  // still between them, so it too comes out as it came.
+  ASSERT_EQ(resolved.flip_joints.size(), std::size_t(clip.joints()));
+  EXPECT_EQ(resolved.flip_joints[kFlipping], 1);
+  EXPECT_EQ(resolved.flip_joints[kConstant], 0);
   EXPECT_EQ(resolved.distance_joints[kPopped], 1);
   Clip out = clip;
   std::fill(out.rotations.begin(), out.rotations.end(), 0.0f);
@@ -240,7 +283,7 @@ TEST_F(ConditioningCli, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   const auto& listed = j["garbage_joints"]["by_clip"][0]["joints"];
   EXPECT_EQ(listed[0]["joint"], clip.skeleton->joint_names[kFlipping]);
   EXPECT_EQ(listed[0]["class"], "flipping");
-  EXPECT_EQ(j["garbage_joints"]["handling"], "kept as they came");
+  EXPECT_EQ(j["garbage_joints"]["handling"], "kept (flipping joints filtered between their flips)");
 
   // Without --json the closing line says it too.
   const auto human = clean("out2", "--method bof --pops auto");

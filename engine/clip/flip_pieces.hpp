@@ -1,0 +1,35 @@
+#pragma once
+// Flipping joints between their flips. A flipping joint (kernels/joint_quality.hpp: an uncaptured
+// joint whose Euler channels turn the rotation by about pi every few frames, CMU 06_14's LThumb)
+// carries the same noise as its captured neighbours between flips, but a filter run across a
+// flip smears the turn of pi over its neighbours. So each piece between two flips is filtered as a
+// clip of its own, with the clip's own settings (its noise estimate comes from the other joints),
+// and the flips stay where the capture has them: the joint comes out as smooth as its neighbours
+// where it is smooth, and no flip is moved, added or removed (README "Pops and garbage joints").
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/status.hpp"
+#include "core/tensor.hpp"
+#include "engine/clip/filter_settings.hpp"
+#include "kernels/motion_io.hpp"
+#include "kernels/motion_split.hpp"
+
+namespace mocap::engine {
+
+// The frames [0, frames) of `rotations` between the joint's flips: cut after each step t -> t+1
+// whose geodesic angle is at least kFlipStep.
+std::vector<Segment> flip_pieces(RotationView rotations, int joint);
+
+// Pieces shorter than this stay as they came (a filter needs neighbours on both sides).
+inline constexpr int kFlipPieceMinFrames = 3;
+
+// Writes `joint`'s rotations of io's frames [frame_begin, frame_stop()) from `settings`' filter
+// run on each piece (flip_pieces of io.rotations) as a clip of its own; its translations and
+// every other joint are left as they are. io.rotations is one segment of a clip (the pieces of
+// a clip split at impossible steps lie inside its segments).
+Status filter_between_flips(const FilterSettings& settings, const MotionIO& io, int joint,
+                            std::span<const std::uint8_t> distance_joints);
+
+}  // namespace mocap::engine

@@ -1,0 +1,161 @@
+// Flipping joints filtered between their flips (engine/clip/flip_pieces.hpp): the pieces are cut
+// at the flips and nowhere else, each piece comes out smoother, the flips stay where they were,
+// and nothing else is written.
+#include "engine/clip/flip_pieces.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/quaternion.hpp"
+#include "engine/clip/methods.hpp"
+#include "kernels/joint_quality.hpp"
+#include "kernels/noise_model.hpp"
+#include "tests/test_support.hpp"
+
+namespace mocap::engine {
+namespace {
+
+constexpr int kFrames = 240, kJoints = 3, kFlipper = 1;
+const int kFlips[] = {70, 131, 200};  // the steps t -> t + 1 that flip
+
+// Smooth motion on every joint; joint kFlipper turned by pi - 0.05 rad about x on the frames
+// after an odd number of flips (an uncaptured joint whose Euler channels flip).
+test::Motion flipping_motion() {
+  std::mt19937_64 rng(41);
+  test::Motion m{kFrames, kJoints, test::random_motion(rng, kFrames, kJoints, 0.5)};
+  const Quat flip = exp(Vec3{3.14159265358979 - 0.05, 0, 0});
+  for (int t = 0; t < kFrames; ++t) {
+    int flips = 0;
+    for (int f : kFlips) flips += t > f;
+    if (flips % 2) store_quat(m.at(t, kFlipper) * flip, m.span().at(t, kFlipper));
+  }
+  return m;
+}
+
+// Bof at three frames, one pass, range weight wide enough for the noise below; or the linear
+// Gaussian filter (sigma_t 2 frames), which has no range weight to stop at a flip.
+FilterSettings settings_of(Method method) {
+  FilterSettings s;
+  s.method = method;
+  if (method == Method::bof) {
+    BilateralParams& b = s.edit<BilateralParams>();
+    b.sigma_t = 3;
+    b.sigma_g = 0.3;
+    b.iterations = 1;
+  } else {
+    s.edit<LinearParams>().sigma_t = 2;
+  }
+  return s;
+}
+
+double piece_rms(const test::Motion& a, const test::Motion& b, int begin, int end) {
+  double sum = 0;
+  for (int t = begin; t < end; ++t)
+    sum += std::pow(test::rotation_error(a.view(), b.view(), t, kFlipper), 2);
+  return std::sqrt(sum / (end - begin));
+}
+
+TEST(FlipPieces, CutAfterEachFlipAndNowhereElse) {
+  const test::Motion m = flipping_motion();
+  const std::vector<Segment> pieces = flip_pieces(m.view(), kFlipper);
+  ASSERT_EQ(pieces.size(), 4u);
+  int begin = 0;
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(pieces[k].begin, begin);
+    EXPECT_EQ(pieces[k].end, kFlips[k] + 1);
+    begin = kFlips[k] + 1;
+  }
+  EXPECT_EQ(pieces[3].begin, begin);
+  EXPECT_EQ(pieces[3].end, kFrames);
+  // A joint that never flips is one piece, even with noise on it.
+  test::Motion noisy = m;
+  add_noise(GaussianNoise{0.1, 3}, noisy.span());
+  ASSERT_EQ(flip_pieces(noisy.view(), 0).size(), 1u);
+  EXPECT_EQ(flip_pieces(noisy.view(), 0)[0].end, kFrames);
+}
+
+TEST(FlipPieces, EachPieceIsFilteredAndTheFlipsStay) {
+  const test::Motion clean = flipping_motion();
+  test::Motion noisy = clean;
+  add_noise(GaussianNoise{0.03, 9}, noisy.span());
+  make_hemisphere_continuous(noisy.span());
+  for (const Method method : {Method::bof, Method::gaussian}) {
+    const std::string name(to_string(method));
+    test::Motion out = noisy;
+    const float sentinel = 7.0f;
+    for (int t = 0; t < kFrames; ++t)
+      for (int j = 0; j < kJoints; ++j)
+        if (j != kFlipper) std::fill_n(out.span().at(t, j), 4, sentinel);
+    MotionIO io;
+    io.rotations = noisy.view();
+    io.filtered_rotations = out.span();
+    ASSERT_TRUE(filter_between_flips(settings_of(method), io, kFlipper, {}).ok()) << name;
+
+    // Nothing but the flipping joint written.
+    for (int t = 0; t < kFrames; ++t)
+      for (int j = 0; j < kJoints; ++j) {
+        if (j == kFlipper) continue;
+        EXPECT_EQ(out.view().at(t, j)[0], sentinel) << name << " " << t << " " << j;
+      }
+    // The flips where they were, and only there.
+    const std::vector<Segment> before = flip_pieces(noisy.view(), kFlipper);
+    const std::vector<Segment> after = flip_pieces(out.view(), kFlipper);
+    ASSERT_EQ(after.size(), before.size()) << name;
+    for (std::size_t k = 0; k < after.size(); ++k)
+      EXPECT_EQ(after[k].end, before[k].end) << name << " " << k;
+    // Every piece closer to the clean motion than the noise left it (both filters take about
+    // half of this noise away), and no sample next to a flip far from it.
+    for (const Segment& p : before) {
+      const double noisy_rms = piece_rms(noisy, clean, p.begin, p.end);
+      const double out_rms = piece_rms(out, clean, p.begin, p.end);
+      EXPECT_LT(out_rms, 0.75 * noisy_rms) << name << " piece " << p.begin << "-" << p.end;
+    }
+    double worst_pieces = 0;
+    for (int f : kFlips)
+      for (int t = f - 2; t <= f + 3; ++t)
+        worst_pieces =
+            std::max(worst_pieces, test::rotation_error(out.view(), clean.view(), t, kFlipper));
+    EXPECT_LT(worst_pieces, 0.1) << name;
+  }
+  // The linear filter run across the flips smears each one over its neighbours.
+  test::Motion across = noisy;
+  MotionIO whole;
+  whole.rotations = noisy.view();
+  whole.filtered_rotations = across.span();
+  whole.joint_begin = kFlipper;
+  whole.joint_end = kFlipper + 1;
+  ASSERT_TRUE(run_method(settings_of(Method::gaussian), whole, {}).ok());
+  double worst_across = 0;
+  for (int f : kFlips)
+    for (int t = f - 2; t <= f + 3; ++t)
+      worst_across =
+          std::max(worst_across, test::rotation_error(across.view(), clean.view(), t, kFlipper));
+  EXPECT_GT(worst_across, 0.5);
+}
+
+TEST(FlipPieces, ShortPiecesStayAsTheyCame) {
+  test::Motion m = flipping_motion();
+  // A flip back two steps after the first: a piece of two frames.
+  const Quat flip = exp(Vec3{3.14159265358979 - 0.05, 0, 0});
+  for (int t = kFlips[0] + 3; t <= kFlips[1]; ++t)
+    store_quat(m.at(t, kFlipper) * flip, m.span().at(t, kFlipper));
+  make_hemisphere_continuous(m.span());
+  const std::vector<Segment> pieces = flip_pieces(m.view(), kFlipper);
+  ASSERT_GE(pieces.size(), 2u);
+  ASSERT_EQ(pieces[1].frames(), 2);
+  test::Motion out = m;
+  MotionIO io;
+  io.rotations = m.view();
+  io.filtered_rotations = out.span();
+  ASSERT_TRUE(filter_between_flips(settings_of(Method::bof), io, kFlipper, {}).ok());
+  for (int t = pieces[1].begin; t < pieces[1].end; ++t)
+    EXPECT_EQ(std::memcmp(out.view().at(t, kFlipper), m.view().at(t, kFlipper), 16), 0) << t;
+}
+
+}  // namespace
+}  // namespace mocap::engine
