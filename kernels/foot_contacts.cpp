@@ -6,6 +6,7 @@
 #include <map>
 
 #include "core/format.hpp"
+#include "kernels/point_smoothing.hpp"
 
 namespace mocap {
 namespace {
@@ -28,33 +29,8 @@ char side_of(const std::string& name) {
 
 // The Gaussian-smoothed track (mirror at the ends), so per-frame noise does not read as speed.
 std::vector<Vec3> smooth(const std::vector<Vec3>& track, double sigma) {
-  const int n = int(track.size());
-  if (sigma < 0.5 || n < 3) return track;
-  const int reach = int(std::ceil(3 * sigma));
-  std::vector<double> mask(std::size_t(2 * reach + 1));
-  double sum = 0;
-  for (int r = -reach; r <= reach; ++r)
-    sum += mask[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (sigma * sigma));
-  // Mirror at the ends (periodic for reaches beyond the clip); only the frames within `reach` of
-  // an end need it.
-  const long period = 2L * (n - 1);
-  auto mirrored = [&](long s) {
-    s = ((s % period) + period) % period;
-    return s >= n ? period - s : s;
-  };
-  std::vector<Vec3> out(track.size());
-  for (int t = 0; t < n; ++t) {
-    Vec3 acc;
-    if (t >= reach && t + reach < n) {
-      for (int r = -reach; r <= reach; ++r)
-        acc += mask[std::size_t(r + reach)] * track[std::size_t(t + r)];
-    } else {
-      for (int r = -reach; r <= reach; ++r)
-        acc += mask[std::size_t(r + reach)] * track[std::size_t(mirrored(long(t) + r))];
-    }
-    out[std::size_t(t)] = (1.0 / sum) * acc;
-  }
-  return out;
+  if (sigma < 0.5 || track.size() < 3) return track;
+  return smooth_mirrored(track, sigma);
 }
 
 // The per-frame noise of a track's horizontal axes (white noise of std n has second differences

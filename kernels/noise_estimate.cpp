@@ -6,6 +6,7 @@
 
 #include "core/quaternion.hpp"
 #include "kernels/median.hpp"
+#include "kernels/point_smoothing.hpp"
 
 namespace mocap {
 
@@ -55,12 +56,8 @@ TranslationNoise estimate_translation_noise(TranslationView translations,
   TranslationNoise out;
   const int frames = translations.frames;
   if (translations.empty() || frames < 4 || !(frame_time > 0)) return out;
-  const double smoothing = 0.1 / frame_time;  // frames
-  const int reach = int(std::ceil(3 * smoothing));
-  std::vector<double> mask(std::size_t(2 * reach + 1));
-  double mask_sum = 0;
-  for (int r = -reach; r <= reach; ++r)
-    mask_sum += mask[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (smoothing * smoothing));
+  const double smoothing = 0.1 / frame_time;        // frames
+  const int reach = int(std::ceil(3 * smoothing));  // smooth_mirrored's
   for (int j = 0; j < translations.joints; ++j) {
     if (std::size_t(j) >= translated_joints.size() || translated_joints[std::size_t(j)] == 0)
       continue;
@@ -76,22 +73,9 @@ TranslationNoise estimate_translation_noise(TranslationView translations,
     const double sigma = 1.4826 * median(c) / std::sqrt(20.0);
     if (!(sigma > out.sigma) && out.sigma > 0) continue;
     // The smoothed trajectory (mirrored at the ends), then its RMS second difference.
-    std::vector<Vec3> smooth(static_cast<std::size_t>(frames));
-    const long period = 2L * (frames - 1);
-    for (int t = 0; t < frames; ++t) {
-      Vec3 acc;
-      if (t >= reach && t + reach < frames) {  // no mirror needed: no modulo per tap
-        for (int r = -reach; r <= reach; ++r)
-          acc += mask[std::size_t(r + reach)] * load_vec3(translations.at(t + r, j));
-      } else {
-        for (int r = -reach; r <= reach; ++r) {
-          long s = ((long(t) + r) % period + period) % period;
-          if (s >= frames) s = period - s;
-          acc += mask[std::size_t(r + reach)] * load_vec3(translations.at(int(s), j));
-        }
-      }
-      smooth[std::size_t(t)] = (1.0 / mask_sum) * acc;
-    }
+    std::vector<Vec3> points(static_cast<std::size_t>(frames));
+    for (int t = 0; t < frames; ++t) points[std::size_t(t)] = load_vec3(translations.at(t, j));
+    const std::vector<Vec3> smooth = smooth_mirrored(points, smoothing);
     double sum = 0;
     int n = 0;
     // Away from the ends, where the mirror folds the trajectory back.
