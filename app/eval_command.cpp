@@ -70,6 +70,7 @@ std::string canonical_command(const EvalCommand& c, const EvalConfig& config) {
   for (const auto& n : c.noise) s += " --noise " + quote(n);
   s += " --methods " + c.methods;
   s += " --pops " + c.pops;
+  if (c.pop_stage != "auto") s += " --pop-stage " + c.pop_stage;
   if (c.feet != "off") s += " --feet " + c.feet;
   for (const auto& g : c.grid) s += " --grid " + quote(g);
   s += fmt::format(" --seed {}", config.seed);
@@ -119,6 +120,13 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
                   "engine's default pop stage, --pops auto (rows METHOD+pops; garbage joints "
                   "kept); both")
       ->check(CLI::IsMember({"off", "on", "both"}))
+      ->capture_default_str()
+      ->group("Evaluation");
+  cmd->add_option("--pop-stage", command.pop_stage,
+                  "the pop stage of the +pops rows and of auto: auto (clean's default: repairs "
+                  "at 60 fps and more, only counts below) or repair (repairs at every frame "
+                  "rate, below 60 fps with the skeleton test, as clean --pops repair)")
+      ->check(CLI::IsMember({"auto", "repair"}))
       ->capture_default_str()
       ->group("Evaluation");
   cmd->add_option("--feet", command.feet,
@@ -225,6 +233,7 @@ int run_eval(const EvalCommand& command) {
   config.grids = build_grids(methods, overrides, command.pops != "on", command.pops != "off");
   apply_feet_mode(config.grids, command.feet);
   config.guard = command.guard == "on";
+  config.pop_stage = command.pop_stage == "repair" ? PopsMode::repair : PopsMode::automatic;
   config.lock_feet = std::any_of(config.grids.begin(), config.grids.end(),
                                  [](const MethodGrid& g) { return g.lock_feet; });
   config.repaired = std::any_of(config.grids.begin(), config.grids.end(),

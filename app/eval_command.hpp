@@ -17,6 +17,7 @@ struct EvalCommand {
   std::vector<std::string> noise;  // --noise specs; empty = the defaults
   std::string methods;             // empty: every method of the table (engine/clip/methods.hpp)
   std::string pops = "both";       // off: the spec filters; on: after the pop stage; both
+  std::string pop_stage = "auto";  // the stage of the +pops rows and auto: auto or repair
   std::string feet = "off";        // off, lock, both (eval_spec.hpp, apply_feet_mode)
   std::string guard = "on";        // auto's runs end with the engine's guard, as clean's do
   std::vector<std::string> grid;   // --grid METHOD.PARAM=v1,v2

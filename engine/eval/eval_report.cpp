@@ -289,6 +289,7 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
   j["engine_version"] = std::string(kVersion);
   j["seed"] = config.seed;
   j["split_impossible"] = config.split_impossible;
+  j["pop_stage"] = config.pop_stage == PopsMode::repair ? "repair" : "auto";
   j["guard"] = config.guard;  // auto's runs end with clean's guard (engine/clip/motion_guard.hpp)
   j["split_max_speed_rad_s"] = config.split.max_speed;
   j["split_max_step_rad"] = config.split.max_step;

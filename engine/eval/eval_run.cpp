@@ -212,7 +212,7 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
       if (config.repaired) {
         noisy.repaired = noisy.rotations;
         const ClipConditioning cond = condition_rotations(
-            PopsMode::automatic, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
+            config.pop_stage, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
             clip.clean.frame_time, clip.clean.skeleton->parents);
         noisy.garbage = cond.garbage;
         for (const JointQuality& q : cond.joints)

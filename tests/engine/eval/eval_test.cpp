@@ -195,6 +195,37 @@ TEST(EvalCommand, PopStageRowsRunAfterThePopRepairAndBeatThePlainFiltersOnPops) 
   EXPECT_GT(automatic_psnr(4, 0), noisy_pops + 3.0);
 }
 
+// --pop-stage repair: below 60 fps the +pops rows and auto repair the pops, where the default
+// stage (clean's --pops auto) only counts them and auto ends at its noisy input.
+TEST(EvalCommand, PopStageRepairRepairsBelowSixtyFps) {
+  test::TempDir in("eval-stage-in");
+  const auto demo = engine::make_demo_library();
+  for (int i : {0, 1}) {  // the walk and the run, 120 fps; --frame-step 4 makes them 30 fps
+    std::string error;
+    const fs::path target = in.path() / demo[std::size_t(i)].relative_path;
+    fs::create_directories(target.parent_path());
+    ASSERT_TRUE(io::write_bvh(demo[std::size_t(i)].clip, target, &error)) << error;
+  }
+  double psnr[2] = {0, 0}, noisy = 0;
+  for (const int repair : {0, 1}) {
+    test::TempDir out(repair ? "eval-stage-repair" : "eval-stage-auto");
+    const auto r = test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
+                                 "' --noise impulse --methods auto --frame-step 4 --no-plots" +
+                                 (repair ? " --pop-stage repair" : ""));
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const auto report = nlohmann::json::parse(test::read_text(out / "report.json"));
+    EXPECT_EQ(report["pop_stage"], repair ? "repair" : "auto");
+    psnr[repair] = report["methods"][0]["automatic"]["results"][0]["psnr_db"].get<double>();
+    noisy = report["conditions"][0]["noisy"]["psnr_db"].get<double>();
+    std::size_t found = 0;
+    for (const auto& clip : report["conditions"][0]["noisy_per_clip"])
+      found += clip["pops_found"].get<std::size_t>();
+    EXPECT_GT(found, 5u) << "counted either way";
+  }
+  EXPECT_LT(psnr[0], noisy + 0.5);
+  EXPECT_GT(psnr[1], noisy + 5.0);
+}
+
 // A one-frame glitch of the capture itself: the pop stage repairs it and the score, taking the
 // capture as truth, counts the repair as error; psnr_db_unglitched leaves the glitch out.
 TEST(EvalCommand, TheUnglitchedScoreLeavesTheReferencesOwnGlitchesOut) {
