@@ -65,18 +65,25 @@ void solve_quadratic(const MomentInverse& m, const FitSums& f, Vec3& intercept, 
 }
 
 // The candidate blocks of a sample whose window is [lo, hi] (t inside), in the order the fits
-// are compared (the first of equal scores wins). With `whole`, their moments for a window where
-// every neighbour is in the chart: offsets are integers, so the moments and cofactors are exact
-// and computing them once changes no bit of any fit.
-std::vector<BlockFit> candidate_blocks(int t, int lo, int hi, int max_run) {
+// are compared (the first of equal scores wins). With `moments`, also their point counts and
+// moment inverses for a window where every neighbour is in the chart: offsets are integers, so
+// the moments and cofactors are exact and computing them once changes no bit of any fit. Without
+// (a window near an end or with neighbours out of the chart, whose fits count their own points
+// and invert their own moments), only the blocks' extents.
+std::vector<BlockFit> candidate_blocks(int t, int lo, int hi, int max_run, bool moments) {
   std::vector<BlockFit> blocks;
   FitSums all;
-  for (int u = lo; u <= hi; ++u)
-    if (u != t) all.add(u - t, {}, 1.0);
+  if (moments)
+    for (int u = lo; u <= hi; ++u)
+      if (u != t) all.add(u - t, {}, 1.0);
   for (int x = lo; x <= hi; ++x)
     for (int y = x - 1; y <= std::min(hi, x + max_run); ++y) {
       const int excluded = y - x + 1 - (x <= t && t <= y ? 1 : 0);
       if (excluded > max_run || (y < x && x != lo)) continue;
+      if (!moments) {
+        blocks.push_back({x - t, y - t, 0, {}});
+        continue;
+      }
       FitSums fit = all;
       for (int u = x; u <= y; ++u)
         if (u != t) fit.add(u - t, {}, -1.0);
@@ -107,7 +114,7 @@ Status PopRepairParams::validate() const {
 namespace pop_detail {
 
 std::vector<BlockFit> whole_window_blocks(const PopRepairParams& params) {
-  return candidate_blocks(params.window(), 0, 2 * params.window(), params.max_run);
+  return candidate_blocks(params.window(), 0, 2 * params.window(), params.max_run, true);
 }
 
 void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
@@ -143,7 +150,7 @@ void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
   bool whole = lo == t - window && hi == t + window;
   for (int u = lo; whole && u <= hi; ++u) whole = reachable(u);
   std::vector<BlockFit> near_an_end;
-  if (!whole) near_an_end = candidate_blocks(t, lo, hi, params.max_run);
+  if (!whole) near_an_end = candidate_blocks(t, lo, hi, params.max_run, false);
   const std::span<const BlockFit> blocks =
       whole ? whole_window : std::span<const BlockFit>(near_an_end);
   // Blocks come x by x with y rising: each fit is the one before with one more point left
