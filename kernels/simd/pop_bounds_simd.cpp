@@ -110,11 +110,29 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
       // Row 3 becomes the bound on |v_i - p(o_i)|.
       hn::StoreU(hn::Add(error, hn::LoadU(d, row(3, i))), d, row(3, i));
     }
+    // The worst block's weighted sum. Four blocks at a time: four independent chains of adds
+    // instead of one (the chain's latency was most of this kernel's time), each block's sum
+    // still taken over i in order and the maxima in block order (the same bits).
     V worst = zero;
-    for (const std::vector<double>& weights : screen.block_weights) {
+    const std::vector<std::vector<double>>& blocks = screen.block_weights;
+    std::size_t b = 0;
+    for (; b + 4 <= blocks.size(); b += 4) {
+      const double *w0 = blocks[b].data(), *w1 = blocks[b + 1].data(), *w2 = blocks[b + 2].data(),
+                   *w3 = blocks[b + 3].data();
+      V s0 = zero, s1 = zero, s2 = zero, s3 = zero;
+      for (std::size_t i = 0; i < n; ++i) {
+        const V r = hn::LoadU(d, row(3, i));
+        s0 = hn::Add(s0, hn::Mul(hn::Set(d, w0[i]), r));
+        s1 = hn::Add(s1, hn::Mul(hn::Set(d, w1[i]), r));
+        s2 = hn::Add(s2, hn::Mul(hn::Set(d, w2[i]), r));
+        s3 = hn::Add(s3, hn::Mul(hn::Set(d, w3[i]), r));
+      }
+      worst = hn::Max(hn::Max(hn::Max(hn::Max(worst, s0), s1), s2), s3);
+    }
+    for (; b < blocks.size(); ++b) {
       V sum = zero;
       for (std::size_t i = 0; i < n; ++i)
-        sum = hn::Add(sum, hn::Mul(hn::Set(d, weights[i]), hn::LoadU(d, row(3, i))));
+        sum = hn::Add(sum, hn::Mul(hn::Set(d, blocks[b][i]), hn::LoadU(d, row(3, i))));
       worst = hn::Max(worst, sum);
     }
     const V bound = hn::Add(intercept, worst);
