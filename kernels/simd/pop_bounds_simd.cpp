@@ -110,24 +110,29 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
       // Row 3 becomes the bound on |v_i - p(o_i)|.
       hn::StoreU(hn::Add(error, hn::LoadU(d, row(3, i))), d, row(3, i));
     }
-    // The worst block's weighted sum. Four blocks at a time: four independent chains of adds
+    // The worst block's weighted sum. Eight blocks at a time: eight independent chains of adds
     // instead of one (the chain's latency was most of this kernel's time), each block's sum
     // still taken over i in order and the maxima in block order (the same bits).
     V worst = zero;
     const std::vector<std::vector<double>>& blocks = screen.block_weights;
     std::size_t b = 0;
-    for (; b + 4 <= blocks.size(); b += 4) {
-      const double *w0 = blocks[b].data(), *w1 = blocks[b + 1].data(), *w2 = blocks[b + 2].data(),
-                   *w3 = blocks[b + 3].data();
-      V s0 = zero, s1 = zero, s2 = zero, s3 = zero;
+    for (; b + 8 <= blocks.size(); b += 8) {
+      const double* w[8];
+      for (int k = 0; k < 8; ++k) w[k] = blocks[b + std::size_t(k)].data();
+      V s0 = zero, s1 = zero, s2 = zero, s3 = zero, s4 = zero, s5 = zero, s6 = zero, s7 = zero;
       for (std::size_t i = 0; i < n; ++i) {
         const V r = hn::LoadU(d, row(3, i));
-        s0 = hn::Add(s0, hn::Mul(hn::Set(d, w0[i]), r));
-        s1 = hn::Add(s1, hn::Mul(hn::Set(d, w1[i]), r));
-        s2 = hn::Add(s2, hn::Mul(hn::Set(d, w2[i]), r));
-        s3 = hn::Add(s3, hn::Mul(hn::Set(d, w3[i]), r));
+        s0 = hn::Add(s0, hn::Mul(hn::Set(d, w[0][i]), r));
+        s1 = hn::Add(s1, hn::Mul(hn::Set(d, w[1][i]), r));
+        s2 = hn::Add(s2, hn::Mul(hn::Set(d, w[2][i]), r));
+        s3 = hn::Add(s3, hn::Mul(hn::Set(d, w[3][i]), r));
+        s4 = hn::Add(s4, hn::Mul(hn::Set(d, w[4][i]), r));
+        s5 = hn::Add(s5, hn::Mul(hn::Set(d, w[5][i]), r));
+        s6 = hn::Add(s6, hn::Mul(hn::Set(d, w[6][i]), r));
+        s7 = hn::Add(s7, hn::Mul(hn::Set(d, w[7][i]), r));
       }
       worst = hn::Max(hn::Max(hn::Max(hn::Max(worst, s0), s1), s2), s3);
+      worst = hn::Max(hn::Max(hn::Max(hn::Max(worst, s4), s5), s6), s7);
     }
     for (; b < blocks.size(); ++b) {
       V sum = zero;
