@@ -17,29 +17,6 @@ HWY_BEFORE_NAMESPACE();
 namespace mocap::simd::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE QuatV<V> LoadQ(D d, const double* p, std::size_t stride, std::size_t i) {
-  return {hn::LoadU(d, p + i), hn::LoadU(d, p + stride + i), hn::LoadU(d, p + 2 * stride + i),
-          hn::LoadU(d, p + 3 * stride + i)};
-}
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE void StoreQ(D d, QuatV<V> q, double* p, std::size_t stride, std::size_t i) {
-  hn::StoreU(q.w, d, p + i);
-  hn::StoreU(q.x, d, p + stride + i);
-  hn::StoreU(q.y, d, p + 2 * stride + i);
-  hn::StoreU(q.z, d, p + 3 * stride + i);
-}
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE Vec3V<V> LoadV(D d, const double* p, std::size_t stride, std::size_t i) {
-  return {hn::LoadU(d, p + i), hn::LoadU(d, p + stride + i), hn::LoadU(d, p + 2 * stride + i)};
-}
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE void StoreV(D d, Vec3V<V> v, double* p, std::size_t stride, std::size_t i) {
-  hn::StoreU(v.x, d, p + i);
-  hn::StoreU(v.y, d, p + stride + i);
-  hn::StoreU(v.z, d, p + 2 * stride + i);
-}
-
 template <class V>
 HWY_INLINE Vec3V<V> Cross(Vec3V<V> a, Vec3V<V> b) {
   return {hn::MulSub(a.y, b.z, hn::Mul(a.z, b.y)), hn::MulSub(a.z, b.x, hn::Mul(a.x, b.z)),
@@ -118,13 +95,13 @@ void ChainStep(const double* parent_rot, const double* parent_pos, const double*
   const hn::ScalableTag<double> d;
   const std::size_t N = hn::Lanes(d);
   for (std::size_t i = 0; i < n; i += N) {
-    const auto rp = LoadQ(d, parent_rot, stride, i);
+    const auto rp = LoadQuat(d, parent_rot, stride, i);
     const auto l = local != nullptr
-                       ? LoadV(d, local, stride, i)
+                       ? LoadVec3(d, local, stride, i)
                        : Vec3V<hn::Vec<decltype(d)>>{hn::Set(d, offset.x), hn::Set(d, offset.y),
                                                      hn::Set(d, offset.z)};
-    StoreQ(d, Multiply(rp, LoadQ(d, q, stride, i)), rot, stride, i);
-    StoreV(d, Add(LoadV(d, parent_pos, stride, i), RotateUnit(d, rp, l)), pos, stride, i);
+    StoreQuat(d, Multiply(rp, LoadQuat(d, q, stride, i)), rot, stride, i);
+    StoreVec3(d, Add(LoadVec3(d, parent_pos, stride, i), RotateUnit(d, rp, l)), pos, stride, i);
   }
 }
 
@@ -143,8 +120,8 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, std::size_t n, st
   const V zero = hn::Zero(d), one = hn::Set(d, 1.0), minus_one = hn::Set(d, -1.0),
           reach_fraction = hn::Set(d, max_reach), tiny = hn::Set(d, 1e-9);
   for (std::size_t i = 0; i < n; i += N) {
-    const Vec3V<V> hip = LoadV(d, g.hip, stride, i), knee = LoadV(d, g.knee, stride, i),
-                   ankle = LoadV(d, g.ankle, stride, i);
+    const Vec3V<V> hip = LoadVec3(d, g.hip, stride, i), knee = LoadVec3(d, g.knee, stride, i),
+                   ankle = LoadVec3(d, g.ankle, stride, i);
     const Vec3V<V> u{hn::Sub(knee.x, hip.x), hn::Sub(knee.y, hip.y), hn::Sub(knee.z, hip.z)};
     const Vec3V<V> v{hn::Sub(ankle.x, knee.x), hn::Sub(ankle.y, knee.y), hn::Sub(ankle.z, knee.z)};
     const Vec3V<V> w{hn::Sub(ankle.x, hip.x), hn::Sub(ankle.y, hip.y), hn::Sub(ankle.z, hip.z)};
@@ -160,17 +137,17 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, std::size_t n, st
     const V cn = hn::Sqrt(Dot(n3, n3));
     const auto bent = hn::Gt(cn, hn::Mul(tiny, hn::Add(uu, vv)));
     const V inv = hn::IfThenElseZero(bent, hn::Div(one, cn));
-    StoreV(d, u, g.u, stride, i);
-    StoreV(d, v, g.v, stride, i);
+    StoreVec3(d, u, g.u, stride, i);
+    StoreVec3(d, v, g.v, stride, i);
     hn::StoreU(l1, d, g.len + i);
     hn::StoreU(l2, d, g.len + stride + i);
     hn::StoreU(reach, d, g.len + 2 * stride + i);
-    StoreV(d, Vec3V<V>{hn::Mul(n3.x, inv), hn::Mul(n3.y, inv), hn::Mul(n3.z, inv)}, g.normal,
-           stride, i);
+    StoreVec3(d, Vec3V<V>{hn::Mul(n3.x, inv), hn::Mul(n3.y, inv), hn::Mul(n3.z, inv)}, g.normal,
+              stride, i);
     hn::StoreU(hn::IfThenElseZero(bent, one), d, g.bent + i);
     const Vec3V<V> to{hn::Add(w.x, hn::LoadU(d, g.ox + i)), w.y,
                       hn::Add(w.z, hn::LoadU(d, g.oz + i))};
-    StoreV(d, to, g.to_target, stride, i);
+    StoreVec3(d, to, g.to_target, stride, i);
     hn::StoreU(Dot(to, to), d, g.distance + i);
   }
 }
@@ -230,12 +207,12 @@ void LegIk(const LegIkPlanes& io, std::size_t n, std::size_t stride) {
     if (!hn::AllTrue(d, small_turn))
       sh = hn::IfThenElse(small_turn, sh,
                           hn::CopySign(hn::Sqrt(hn::Mul(half, hn::Sub(one, cd))), sd));
-    const Vec3V<V> axis = LoadV(d, io.normal, stride, i);
+    const Vec3V<V> axis = LoadVec3(d, io.normal, stride, i);
     const QuatV<V> knee_turn{ch, hn::Mul(sh, axis.x), hn::Mul(sh, axis.y), hn::Mul(sh, axis.z)};
     // The hip's shortest arc from the bent ankle onto the target (rotation_between).
     const Vec3V<V> a =
-        Add(LoadV(d, io.u, stride, i), RotateUnit(d, knee_turn, LoadV(d, io.v, stride, i)));
-    const Vec3V<V> b = LoadV(d, io.to_target, stride, i);
+        Add(LoadVec3(d, io.u, stride, i), RotateUnit(d, knee_turn, LoadVec3(d, io.v, stride, i)));
+    const Vec3V<V> b = LoadVec3(d, io.to_target, stride, i);
     const V nn = hn::Sqrt(hn::Mul(Dot(a, a), Dot(b, b)));
     const V w = hn::Add(nn, Dot(a, b));
     const Vec3V<V> c = Cross(a, b);
@@ -256,8 +233,8 @@ void LegIk(const LegIkPlanes& io, std::size_t n, std::size_t stride) {
     swing = {hn::IfThenElse(degenerate, one, swing.w), hn::IfThenZeroElse(degenerate, swing.x),
              hn::IfThenZeroElse(degenerate, swing.y), hn::IfThenZeroElse(degenerate, swing.z)};
     // R_hip' = Q_h R_hip, R_knee' = Q_h Q_k R_knee, R_ankle' kept; as local rotations.
-    const QuatV<V> parent = LoadQ(d, io.parent, stride, i), hip = LoadQ(d, io.hip, stride, i),
-                   knee = LoadQ(d, io.knee, stride, i), ankle = LoadQ(d, io.ankle, stride, i);
+    const QuatV<V> parent = LoadQuat(d, io.parent, stride, i), hip = LoadQuat(d, io.hip, stride, i),
+                   knee = LoadQuat(d, io.knee, stride, i), ankle = LoadQuat(d, io.ankle, stride, i);
     const QuatV<V> hip_global = Multiply(swing, hip);
     const QuatV<V> knee_global = Multiply(Multiply(swing, knee_turn), knee);
     const QuatV<V> out[3] = {Multiply(Conj(parent), hip_global),
@@ -277,7 +254,7 @@ void LegIk(const LegIkPlanes& io, std::size_t n, std::size_t stride) {
       if (!hn::AllTrue(d, near))
         scale = hn::IfThenElse(near, scale, hn::Div(one, hn::Sqrt(hn::Add(e, one))));
       QuatV<V> r = Scale(q, scale);
-      const QuatV<V> o = LoadQ(d, io.original[k], stride, i);
+      const QuatV<V> o = LoadQuat(d, io.original[k], stride, i);
       const auto flip =
           hn::Lt(hn::Add(hn::Add(hn::Add(hn::Mul(r.w, o.w), hn::Mul(r.x, o.x)), hn::Mul(r.y, o.y)),
                          hn::Mul(r.z, o.z)),

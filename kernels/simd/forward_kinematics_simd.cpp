@@ -15,29 +15,6 @@ HWY_BEFORE_NAMESPACE();
 namespace mocap::simd::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE QuatV<V> LoadPlanesQ(D d, const double* p, std::size_t stride, std::size_t i) {
-  return {hn::LoadU(d, p + i), hn::LoadU(d, p + stride + i), hn::LoadU(d, p + 2 * stride + i),
-          hn::LoadU(d, p + 3 * stride + i)};
-}
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE Vec3V<V> LoadPlanesV(D d, const double* p, std::size_t stride, std::size_t i) {
-  return {hn::LoadU(d, p + i), hn::LoadU(d, p + stride + i), hn::LoadU(d, p + 2 * stride + i)};
-}
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE void StorePlanesV(D d, Vec3V<V> v, double* p, std::size_t stride, std::size_t i) {
-  hn::StoreU(v.x, d, p + i);
-  hn::StoreU(v.y, d, p + stride + i);
-  hn::StoreU(v.z, d, p + 2 * stride + i);
-}
-template <class D, class V = hn::Vec<D>>
-HWY_INLINE void StorePlanesQ(D d, QuatV<V> q, double* p, std::size_t stride, std::size_t i) {
-  hn::StoreU(q.w, d, p + i);
-  hn::StoreU(q.x, d, p + stride + i);
-  hn::StoreU(q.y, d, p + 2 * stride + i);
-  hn::StoreU(q.z, d, p + 3 * stride + i);
-}
-
 // core/quaternion.hpp's operator*, term by term, left to right.
 template <class V>
 HWY_INLINE QuatV<V> HamiltonProduct(QuatV<V> a, QuatV<V> b) {
@@ -64,19 +41,19 @@ void ForwardKinematicsJoint(const double* parent, const double* rotation, const 
   const std::size_t N = hn::Lanes(d);
   const Vec3V<V> constant{hn::Set(d, offset.x), hn::Set(d, offset.y), hn::Set(d, offset.z)};
   for (std::size_t i = 0; i < n; i += N) {
-    const QuatV<V> q = LoadPlanesQ(d, rotation, stride, i);
-    const Vec3V<V> local = translation ? LoadPlanesV(d, translation, stride, i) : constant;
+    const QuatV<V> q = LoadQuat(d, rotation, stride, i);
+    const Vec3V<V> local = translation ? LoadVec3(d, translation, stride, i) : constant;
     if (parent == nullptr) {
-      StorePlanesQ(d, q, joint, stride, i);
-      StorePlanesV(d, local, joint + 4 * stride, stride, i);
+      StoreQuat(d, q, joint, stride, i);
+      StoreVec3(d, local, joint + 4 * stride, stride, i);
       continue;
     }
-    const QuatV<V> r = LoadPlanesQ(d, parent, stride, i);
-    const Vec3V<V> p = LoadPlanesV(d, parent + 4 * stride, stride, i);
+    const QuatV<V> r = LoadQuat(d, parent, stride, i);
+    const Vec3V<V> p = LoadVec3(d, parent + 4 * stride, stride, i);
     const Vec3V<V> m = RotateSandwich(d, r, local);
-    StorePlanesQ(d, HamiltonProduct(r, q), joint, stride, i);
-    StorePlanesV(d, Vec3V<V>{hn::Add(p.x, m.x), hn::Add(p.y, m.y), hn::Add(p.z, m.z)},
-                 joint + 4 * stride, stride, i);
+    StoreQuat(d, HamiltonProduct(r, q), joint, stride, i);
+    StoreVec3(d, Vec3V<V>{hn::Add(p.x, m.x), hn::Add(p.y, m.y), hn::Add(p.z, m.z)},
+              joint + 4 * stride, stride, i);
   }
 }
 
@@ -87,10 +64,10 @@ void ForwardKinematicsSite(const double* joint, Vec3 offset, double* point, std:
   const std::size_t N = hn::Lanes(d);
   const Vec3V<V> local{hn::Set(d, offset.x), hn::Set(d, offset.y), hn::Set(d, offset.z)};
   for (std::size_t i = 0; i < n; i += N) {
-    const Vec3V<V> p = LoadPlanesV(d, joint + 4 * stride, stride, i);
-    const Vec3V<V> m = RotateSandwich(d, LoadPlanesQ(d, joint, stride, i), local);
-    StorePlanesV(d, Vec3V<V>{hn::Add(p.x, m.x), hn::Add(p.y, m.y), hn::Add(p.z, m.z)}, point,
-                 stride, i);
+    const Vec3V<V> p = LoadVec3(d, joint + 4 * stride, stride, i);
+    const Vec3V<V> m = RotateSandwich(d, LoadQuat(d, joint, stride, i), local);
+    StoreVec3(d, Vec3V<V>{hn::Add(p.x, m.x), hn::Add(p.y, m.y), hn::Add(p.z, m.z)}, point, stride,
+              i);
   }
 }
 

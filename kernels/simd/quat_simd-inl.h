@@ -31,15 +31,18 @@ struct Vec3V {
   V x, y, z;
 };
 
-// Lanes [i, i + N) of a quaternion curve stored as 4 planes of `stride` floats (w, x, y, z).
+// Lanes [i, i + N) of a quaternion curve stored as 4 planes of `stride` lanes (w, x, y, z), and
+// of points as 3 planes (x, y, z): float planes for the filters, double for the pop stage's and
+// the skeleton's kernels.
 template <class D>
-HWY_INLINE QuatV<hn::Vec<D>> LoadQuat(D d, const float* planes, std::size_t stride, std::size_t i) {
+HWY_INLINE QuatV<hn::Vec<D>> LoadQuat(D d, const hn::TFromD<D>* planes, std::size_t stride,
+                                      std::size_t i) {
   return {hn::LoadU(d, planes + i), hn::LoadU(d, planes + stride + i),
           hn::LoadU(d, planes + 2 * stride + i), hn::LoadU(d, planes + 3 * stride + i)};
 }
 
 template <class D>
-HWY_INLINE void StoreQuat(D d, QuatV<hn::Vec<D>> q, float* planes, std::size_t stride,
+HWY_INLINE void StoreQuat(D d, QuatV<hn::Vec<D>> q, hn::TFromD<D>* planes, std::size_t stride,
                           std::size_t i) {
   hn::StoreU(q.w, d, planes + i);
   hn::StoreU(q.x, d, planes + stride + i);
@@ -48,13 +51,14 @@ HWY_INLINE void StoreQuat(D d, QuatV<hn::Vec<D>> q, float* planes, std::size_t s
 }
 
 template <class D>
-HWY_INLINE Vec3V<hn::Vec<D>> LoadVec3(D d, const float* planes, std::size_t stride, std::size_t i) {
+HWY_INLINE Vec3V<hn::Vec<D>> LoadVec3(D d, const hn::TFromD<D>* planes, std::size_t stride,
+                                      std::size_t i) {
   return {hn::LoadU(d, planes + i), hn::LoadU(d, planes + stride + i),
           hn::LoadU(d, planes + 2 * stride + i)};
 }
 
 template <class D>
-HWY_INLINE void StoreVec3(D d, Vec3V<hn::Vec<D>> v, float* planes, std::size_t stride,
+HWY_INLINE void StoreVec3(D d, Vec3V<hn::Vec<D>> v, hn::TFromD<D>* planes, std::size_t stride,
                           std::size_t i) {
   hn::StoreU(v.x, d, planes + i);
   hn::StoreU(v.y, d, planes + stride + i);
