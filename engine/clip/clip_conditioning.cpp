@@ -107,6 +107,14 @@ void repair_between_flips(RotationView rotations, std::span<const std::uint8_t> 
 
 }  // namespace
 
+PopRepairParams pop_params_at(double frame_time) {
+  PopRepairParams params;
+  if (frame_time > 0 && 1.0 / frame_time >= kPopsRepairMinFps) return params;
+  params.max_run = 2;
+  params.local_threshold = 8;
+  return params;
+}
+
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
                                      std::span<const int> parents) {
   ClipConditioning c;
@@ -154,6 +162,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     job.io.frame_time = frame_time;
     job.io.rotations = {rotations.data + offset, seg.frames(), J};
     job.io.filtered_rotations = {repaired.data(), seg.frames(), J};
+    job.params = pop_params_at(frame_time);
     job.skip_joints = flipping;
     job.flagged_per_joint = found;
     job.flagged_samples = flagged;
@@ -165,6 +174,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
       PopSkeletonJob skeleton;
       skeleton.rotations = {rotations.data + offset, seg.frames(), J};
       skeleton.parents = parents;
+      skeleton.params = job.params;
       skeleton.skip = c.garbage;
       skeleton.flags = flagged;
       if (const Status s = skeleton.run(); !s.ok())

@@ -13,6 +13,7 @@
 #include "core/clip.hpp"
 #include "engine/clip/filter_settings.hpp"
 #include "kernels/joint_quality.hpp"
+#include "kernels/pop_repair.hpp"
 
 namespace mocap::engine {
 
@@ -38,6 +39,15 @@ struct ClipConditioning {
 // --pops repair; `auto` still only counts there.
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
                                      std::span<const int> parents = {});
+
+// The pop test's parameters at a frame rate: kernels/pop_repair.hpp's defaults at
+// kPopsRepairMinFps and above; below, runs of at most 2 (a window of 4 neighbours a side, 133 ms
+// at 30 fps where 5 spanned 167 ms) and a flag 8 times further from its fit than the fit's own
+// error (6 above). Calibrated with `eval --pop-stage repair` on the 9 shared clips at 30 fps
+// (max_run 1-3, local threshold 4-16, threshold 6-10, reach 2-3; README "Pops and garbage
+// joints"): clean samples flagged 0.066 % -> 0.011 %, gaussian 0.008 rad 48.05 -> 48.98 dB, the
+// spec's pops 47.27 -> 47.81 dB; at 24 fps 0.108 % -> 0.023 %, 46.58 -> 48.18, 43.26 -> 46.75.
+PopRepairParams pop_params_at(double frame_time);
 
 // condition_rotations on the clip, but nothing at all for method none (a copy) or pops off (the
 // spec's filter alone: no garbage joints are reported either).

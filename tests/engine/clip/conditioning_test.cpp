@@ -167,6 +167,38 @@ TEST(Conditioning, BelowSixtyFpsAutoOnlyCountsAndDetectNeverChangesAnything) {
   EXPECT_EQ(fast.rotations, fast_before.rotations);
 }
 
+// Below 60 fps the pop test looks for runs of at most 2 and wants a flag 8 times further from
+// its fit than the fit's error (engine/clip/clip_conditioning.hpp, pop_params_at); --pops repair
+// there repairs single and double pops, and flags nothing on the same motion without pops.
+TEST(Conditioning, RepairBelowSixtyFpsTakesTheLowRateParameters) {
+  const PopRepairParams high = engine::pop_params_at(1.0 / 120),
+                        low = engine::pop_params_at(1.0 / 30);
+  EXPECT_EQ(high.max_run, PopRepairParams{}.max_run);
+  EXPECT_EQ(high.local_threshold, PopRepairParams{}.local_threshold);
+  EXPECT_EQ(low.max_run, 2);
+  EXPECT_EQ(low.local_threshold, 8);
+  EXPECT_EQ(engine::pop_params_at(1.0 / 60).max_run, high.max_run);
+
+  std::vector<int> pops;
+  Clip clip = test_clip(4, &pops);
+  const Clip before = clip;
+  const ClipConditioning c =
+      engine::condition_rotations(PopsMode::repair, clip.rotation_span(), clip.frame_time);
+  EXPECT_TRUE(c.repaired);
+  for (int t : pops) {
+    if (t >= 90) continue;  // the run of three is longer than the low rate's runs
+    EXPECT_GT(error_at(before, clip, t, kPopped), 0.5) << "frame " << t;
+  }
+  Clip clean = test_clip(4, nullptr);  // the same without its pops
+  for (int t : pops) {
+    float* q = &clean.rotations[(std::size_t(t) * clean.joints() + kPopped) * 4];
+    store_quat(load_quat(q) * exp(Vec3{0, -0.7, -0.2}), q);
+  }
+  const ClipConditioning none =
+      engine::condition_rotations(PopsMode::repair, clean.rotation_span(), clean.frame_time);
+  EXPECT_EQ(none.pop_count(), 0u);
+}
+
 TEST(Conditioning, PopsOffIsTheSpecsFilterOnEveryJoint) {
   Clip clip = test_clip(1, nullptr);
   FilterSettings s;
