@@ -27,6 +27,7 @@ Status PopSkeletonJob::validate() const {
                          std::to_string(F * J) + "), got " + std::to_string(flags.size()));
   if (!(coherence > 0)) return Status::error("pop skeleton test: coherence must be > 0");
   if (reach < 0) return Status::error("pop skeleton test: reach must be >= 0 frames");
+  if (pop_group < 0) return Status::error("pop skeleton test: pop_group must be >= 0 joints");
   return params.validate();
 }
 
@@ -78,6 +79,34 @@ Status PopSkeletonJob::run() const {
         pop_detail::sample_residual(curve, params, whole_window, t, scratch,
                                     residual[std::size_t(j)], spreads, fit_errors);
   }
+  // The size of each flagged sample's group: the joints flagged at its frame that it reaches
+  // through flagged neighbours (the input flags).
+  std::vector<int> group(std::size_t(F) * std::size_t(J), 0);
+  std::vector<int> stack, members;
+  for (int t = 0; t < F; ++t)
+    for (int j = 0; j < J; ++j) {
+      if (!flagged(t, j) || group[std::size_t(t) * std::size_t(J) + std::size_t(j)] != 0) continue;
+      stack.assign(1, j);
+      members.clear();
+      group[std::size_t(t) * std::size_t(J) + std::size_t(j)] = -1;  // visited
+      while (!stack.empty()) {
+        const int k = stack.back();
+        stack.pop_back();
+        members.push_back(k);
+        for (int m : neighbours[std::size_t(k)]) {
+          int& g = group[std::size_t(t) * std::size_t(J) + std::size_t(m)];
+          if (flagged(t, m) && g == 0) {
+            g = -1;
+            stack.push_back(m);
+          }
+        }
+      }
+      for (int k : members)
+        group[std::size_t(t) * std::size_t(J) + std::size_t(k)] = int(members.size());
+    }
+  const auto counts = [&](int u, int k) {
+    return !flagged(u, k) || group[std::size_t(u) * std::size_t(J) + std::size_t(k)] > pop_group;
+  };
   // Decide on the input flags (a neighbour's flag counts as it came), then clear.
   std::vector<std::size_t> clear;
   for (int t = 0; t < F; ++t)
@@ -87,8 +116,7 @@ Status PopSkeletonJob::run() const {
       bool motion = false;
       for (int k : neighbours[std::size_t(j)])
         for (int u = std::max(0, t - reach); u <= std::min(F - 1, t + reach) && !motion; ++u)
-          motion = (flagged_neighbours_count || !flagged(u, k)) &&
-                   residual[std::size_t(k)][std::size_t(u)] >= coherence * own;
+          motion = counts(u, k) && residual[std::size_t(k)][std::size_t(u)] >= coherence * own;
       if (motion) clear.push_back(std::size_t(t) * std::size_t(J) + std::size_t(j));
     }
   for (std::size_t i : clear) flags[i] = 0;

@@ -84,6 +84,35 @@ TEST(PopSkeleton, ACoherentOneFrameLimbSwingAt30FpsIsLeftAlone) {
   EXPECT_EQ(with.rotations, swing.rotations);
 }
 
+// Two pops side by side in one frame (thigh and shin, about unrelated axes): each joint's
+// neighbour leaves its quadratic too, but it is flagged itself and the group is a pair, not a
+// limb: both stay flagged and are repaired. With every flagged neighbour counting (pop_group 0)
+// the pair vetoes itself.
+TEST(PopSkeleton, TwoNeighbouringPopsInOneFrameAreRepaired) {
+  const test::Motion clean = limb({0, 0, 0, 0, 0}, 0);
+  test::Motion popped = limb({0, 1, 1, 0, 0}, 0.6, {0.6, 0.0, 0.8});
+  // The shin's pop about another axis than the thigh's.
+  store_quat(clean.at(kAt, 2) * exp(Vec3{-0.5, 0.2, 0.1}), popped.span().at(kAt, 2));
+  make_hemisphere_continuous(popped.span());
+  test::Motion counted = popped;
+  const engine::ClipConditioning c =
+      engine::condition_rotations(engine::PopsMode::repair, popped.span(), kFrameTime, kParents);
+  EXPECT_EQ(flagged_at(c, kAt, 1), 1);
+  EXPECT_EQ(flagged_at(c, kAt, 2), 1);
+  for (int j : {1, 2}) EXPECT_LT(geodesic(popped.at(kAt, j), clean.at(kAt, j)), 0.05) << j;
+
+  std::vector<std::uint8_t> flags(std::size_t(kFrames) * kJoints, 0);
+  flags[std::size_t(kAt) * kJoints + 1] = flags[std::size_t(kAt) * kJoints + 2] = 1;
+  PopSkeletonJob job;
+  job.params = engine::pop_params_at(kFrameTime);
+  job.rotations = counted.view();
+  job.parents = kParents;
+  job.flags = flags;
+  job.pop_group = 0;
+  ASSERT_TRUE(job.run().ok());
+  EXPECT_EQ(flags[std::size_t(kAt) * kJoints + 1] + flags[std::size_t(kAt) * kJoints + 2], 0);
+}
+
 TEST(PopSkeleton, AtHighFrameRatesTheSkeletonIsNotAsked) {
   // 120 fps: the per-joint test as it was (README "Pops"), parents or not.
   test::Motion a = limb({0, 1, 1, 1, 1}, 0.6), b = a;
