@@ -4,6 +4,7 @@
 #include <cmath>
 #include <optional>
 
+#include "engine/clip/flip_pieces.hpp"
 #include "engine/clip/methods.hpp"
 #include "kernels/foot_contacts.hpp"
 #include "kernels/joint_quality.hpp"
@@ -223,7 +224,12 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
       r.flip_joints[j] = r.kept_joints[j] && q[j].joint_class == JointClass::flipping;
       any = any || r.flip_joints[j];
     }
-    if (!any) r.flip_joints.clear();
+    std::optional<FilterSettings> pieces;
+    if (any) pieces = flip_piece_settings(settings, r.settings, r.noise_sigma, clip.frame_time);
+    if (pieces)
+      r.flip_settings = *pieces;
+    else
+      r.flip_joints.clear();
   }
   if (settings.split_impossible) {
     // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.

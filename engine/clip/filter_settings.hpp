@@ -194,9 +194,10 @@ struct ResolvedSettings {
   // Joints whose samples are copied as they came (garbage joints), one entry per joint; and the
   // joints nlpm's pose distance looks at (empty: all).
   std::vector<std::uint8_t> kept_joints, distance_joints;
-  // Of the kept joints, the flipping ones, then filtered between their flips (one entry per
-  // joint, or empty: none; clip/flip_pieces.hpp).
+  // Of the kept joints, the flipping ones, then filtered between their flips with flip_settings
+  // (one entry per joint, or empty: none; clip/flip_pieces.hpp: flip_piece_settings).
   std::vector<std::uint8_t> flip_joints;
+  FilterSettings flip_settings;
   // With split_impossible: the clip's segments between impossible steps (empty: none found).
   std::vector<Segment> segments;
 };

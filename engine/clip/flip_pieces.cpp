@@ -23,6 +23,14 @@ std::vector<Segment> flip_pieces(RotationView rotations, int joint) {
   return pieces;
 }
 
+std::optional<FilterSettings> flip_piece_settings(const FilterSettings& asked,
+                                                  const FilterSettings& resolved, double sigma_hat,
+                                                  double frame_time) {
+  if (asked.method != Method::automatic) return resolved;
+  if (!(sigma_hat >= kAutoCleanBelow)) return std::nullopt;
+  return choose_automatic(asked, sigma_hat, /*noisy_positions=*/false, frame_time);
+}
+
 Status filter_between_flips(const FilterSettings& settings, const MotionIO& io, int joint,
                             std::span<const std::uint8_t> distance_joints) {
   const int J = io.rotations.joints;

@@ -3,10 +3,11 @@
 // joint whose Euler channels turn the rotation by about pi every few frames, CMU 06_14's LThumb)
 // carries the same noise as its captured neighbours between flips, but a filter run across a
 // flip smears the turn of pi over its neighbours. So each piece between two flips is filtered as a
-// clip of its own, with the clip's own settings (its noise estimate comes from the other joints),
-// and the flips stay where the capture has them: the joint comes out as smooth as its neighbours
+// clip of its own (flip_piece_settings: its noise estimate comes from the other joints), and the
+// flips stay where the capture has them: the joint comes out as smooth as its neighbours
 // where it is smooth, and no flip is moved, added or removed (README "Pops and garbage joints").
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -24,6 +25,16 @@ std::vector<Segment> flip_pieces(RotationView rotations, int joint);
 
 // Pieces shorter than this stay as they came (a filter needs neighbours on both sides).
 inline constexpr int kFlipPieceMinFrames = 3;
+
+// The filter a flipping joint's pieces get. A named method: itself, `resolved` (what the clip's
+// other joints ran with). --method auto: auto's bof for the clip's noise `sigma_hat`, whichever
+// branch the other joints took, and no filter at all (the joint stays as it came) below
+// kAutoCleanBelow: a low-pass rings on pieces a few frames long, and a capture with no noise has
+// nothing to take out of them; bof's range weight keeps a piece's change within a few sigma_hat
+// (README "Pops and garbage joints": what the other choices cost 06_14).
+std::optional<FilterSettings> flip_piece_settings(const FilterSettings& asked,
+                                                  const FilterSettings& resolved, double sigma_hat,
+                                                  double frame_time);
 
 // Writes `joint`'s rotations of io's frames [frame_begin, frame_stop()) from `settings`' filter
 // run on each piece (flip_pieces of io.rotations) as a clip of its own; its translations and

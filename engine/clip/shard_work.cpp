@@ -84,7 +84,8 @@ Status run_shard(const ResolvedSettings& resolved, const Clip& input, Clip& outp
       const int begin = std::max(seg.begin, shard.frame_begin);
       const int end = std::min(seg.end, shard.frame_end);
       if (begin >= end || !status.ok()) continue;
-      status = filter_between_flips(s, segment_io(seg, begin, end), j, resolved.distance_joints);
+      status = filter_between_flips(resolved.flip_settings, segment_io(seg, begin, end), j,
+                                    resolved.distance_joints);
     }
   }
   return status;

@@ -26,9 +26,10 @@ std::string automatic_rule(EvalMethod method) {
 
 namespace {
 
-// `ran` (when the method filtered) receives the settings it ran with.
+// `flip_settings` (when the method filtered) receives the filter of the flipping joints' pieces
+// (flip_piece_settings), or stays empty where they are kept as they came.
 Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
-                   nlohmann::json* resolved, std::optional<FilterSettings>& ran) {
+                   nlohmann::json* resolved, std::optional<FilterSettings>& flip_settings) {
   nlohmann::json used = nlohmann::json::object();
   auto done = [&](Status s) {
     if (resolved) *resolved = used;
@@ -69,7 +70,7 @@ Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob&
     io.translated_joints = job.translated_joints;
   }
   const Status s = run_method(settings, io, job.distance_joints);
-  ran = settings;
+  flip_settings = flip_piece_settings(*asked, settings, job.sigma_hat, job.frame_time);
   if (asked->method != Method::automatic) {
     used = variant.used(settings);
     return done(s);
@@ -89,8 +90,8 @@ Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob&
 
 Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJob& job,
                       nlohmann::json* resolved) {
-  std::optional<FilterSettings> ran;
-  Status s = run_variant(method, point, job, resolved, ran);
+  std::optional<FilterSettings> flip_settings;
+  Status s = run_variant(method, point, job, resolved, flip_settings);
   // Garbage joints as they came, flipping ones then between their flips, as the engine does
   // (run_shard).
   for (std::size_t j = 0; s && j < job.kept_joints.size(); ++j) {
@@ -103,13 +104,13 @@ Status filter_segment(EvalMethod method, const ParamPoint* point, const SegmentJ
                     3 * sizeof(float));
     }
   }
-  for (std::size_t j = 0; s && ran && j < job.flip_joints.size(); ++j) {
+  for (std::size_t j = 0; s && flip_settings && j < job.flip_joints.size(); ++j) {
     if (!job.flip_joints[j]) continue;
     MotionIO io;
     io.frame_time = job.frame_time;
     io.rotations = job.noisy;
     io.filtered_rotations = job.output;
-    s = filter_between_flips(*ran, io, int(j), job.distance_joints);
+    s = filter_between_flips(*flip_settings, io, int(j), job.distance_joints);
   }
   return s;
 }

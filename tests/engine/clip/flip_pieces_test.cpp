@@ -1,12 +1,13 @@
 // Flipping joints filtered between their flips (engine/clip/flip_pieces.hpp): the pieces are cut
 // at the flips and nowhere else, each piece comes out smoother, the flips stay where they were,
-// and nothing else is written.
+// nothing else is written, and auto filters them with its bof or not at all.
 #include "engine/clip/flip_pieces.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -136,6 +137,54 @@ TEST(FlipPieces, EachPieceIsFilteredAndTheFlipsStay) {
       worst_across =
           std::max(worst_across, test::rotation_error(across.view(), clean.view(), t, kFlipper));
   EXPECT_GT(worst_across, 0.5);
+}
+
+// --method auto filters the pieces with its bof for the clip's noise whichever branch the other
+// joints took (a Butterworth low-pass of noisy positions rings on short pieces), and leaves them
+// as they came on a capture with no noise to take out; a named method filters them itself.
+TEST(FlipPieces, AutoFiltersThePiecesWithItsBofAndNothingBelowItsNoiseFloor) {
+  constexpr double kFrameTime = 1.0 / 120;
+  FilterSettings asked;
+  asked.method = Method::automatic;
+  for (const bool noisy_positions : {false, true}) {
+    const FilterSettings resolved = choose_automatic(asked, 0.03, noisy_positions, kFrameTime);
+    ASSERT_EQ(resolved.method, noisy_positions ? Method::butterworth : Method::bof);
+    const std::optional<FilterSettings> pieces =
+        flip_piece_settings(asked, resolved, 0.03, kFrameTime);
+    ASSERT_TRUE(pieces.has_value());
+    EXPECT_EQ(pieces->method, Method::bof);
+    const BilateralParams got = pieces->param<BilateralParams>();
+    const BilateralParams rule = automatic_smoothing(0.03, kFrameTime);
+    EXPECT_EQ(got.sigma_g, rule.sigma_g);
+    EXPECT_EQ(got.sigma_t, rule.sigma_t);
+    EXPECT_EQ(got.iterations, rule.iterations);
+  }
+  const double clean = 0.5 * kAutoCleanBelow;
+  EXPECT_FALSE(flip_piece_settings(asked, choose_automatic(asked, clean), clean, kFrameTime));
+
+  const FilterSettings named = settings_of(Method::gaussian);
+  const std::optional<FilterSettings> same = flip_piece_settings(named, named, clean, kFrameTime);
+  ASSERT_TRUE(same.has_value());
+  EXPECT_EQ(same->method, Method::gaussian);
+  EXPECT_EQ(same->param<LinearParams>().sigma_t, 2);
+
+  // What auto's pieces filter does: every piece of a noisy flipping joint closer to the motion.
+  const test::Motion clean_motion = flipping_motion();
+  test::Motion noisy = clean_motion;
+  add_noise(GaussianNoise{0.03, 5}, noisy.span());
+  make_hemisphere_continuous(noisy.span());
+  test::Motion out = noisy;
+  MotionIO io;
+  io.rotations = noisy.view();
+  io.filtered_rotations = out.span();
+  const FilterSettings resolved = choose_automatic(asked, 0.03, true, kFrameTime);
+  ASSERT_TRUE(filter_between_flips(*flip_piece_settings(asked, resolved, 0.03, kFrameTime), io,
+                                   kFlipper, {})
+                  .ok());
+  for (const Segment& p : flip_pieces(noisy.view(), kFlipper))
+    EXPECT_LT(piece_rms(out, clean_motion, p.begin, p.end),
+              0.75 * piece_rms(noisy, clean_motion, p.begin, p.end))
+        << "piece " << p.begin << "-" << p.end;
 }
 
 TEST(FlipPieces, ShortPiecesStayAsTheyCame) {
