@@ -66,6 +66,16 @@ Clip test_clip(double fps_divisor, std::vector<int>* pops) {
   return clip;
 }
 
+// test_clip without its pops (rebuilt from the same seeds, each pop turned back).
+Clip without_pops(double fps_divisor, const std::vector<int>& pops) {
+  Clip clean = test_clip(fps_divisor, nullptr);
+  for (int t : pops) {
+    float* q = &clean.rotations[(std::size_t(t) * clean.joints() + kPopped) * 4];
+    store_quat(load_quat(q) * exp(Vec3{0, -0.7, -0.2}), q);
+  }
+  return clean;
+}
+
 // The first frame where joint j's rotation differs in any bit between a and b; -1 if none.
 int first_changed_frame(const Clip& a, const Clip& b, int j) {
   for (int t = 0; t < a.frames; ++t) {
@@ -138,12 +148,7 @@ TEST(Conditioning, PopsOfAFlippingJointAreRepairedBetweenItsFlips) {
 TEST(Conditioning, RepairedPopsLandOnTheMotion) {
   std::vector<int> pops;
   Clip clip = test_clip(1, &pops);
-  Clip clean = test_clip(1, nullptr);
-  // The clean version: same clip without the pops (rebuild it from the same seed, undo pops).
-  for (int t : pops) {
-    float* q = &clean.rotations[(std::size_t(t) * clean.joints() + kPopped) * 4];
-    store_quat(load_quat(q) * exp(Vec3{0, -0.7, -0.2}), q);
-  }
+  const Clip clean = without_pops(1, pops);
   engine::condition_rotations(PopsMode::repair, clip.rotation_span(), clip.frame_time);
   for (int t : pops) EXPECT_LT(error_at(clip, clean, t, kPopped), 0.03) << "frame " << t;
 }
@@ -189,11 +194,7 @@ TEST(Conditioning, RepairBelowSixtyFpsTakesTheLowRateParameters) {
     if (t >= 90) continue;  // the run of three is longer than the low rate's runs
     EXPECT_GT(error_at(before, clip, t, kPopped), 0.5) << "frame " << t;
   }
-  Clip clean = test_clip(4, nullptr);  // the same without its pops
-  for (int t : pops) {
-    float* q = &clean.rotations[(std::size_t(t) * clean.joints() + kPopped) * 4];
-    store_quat(load_quat(q) * exp(Vec3{0, -0.7, -0.2}), q);
-  }
+  Clip clean = without_pops(4, pops);
   const ClipConditioning none =
       engine::condition_rotations(PopsMode::repair, clean.rotation_span(), clean.frame_time);
   EXPECT_EQ(none.pop_count(), 0u);
@@ -243,6 +244,35 @@ TEST(Conditioning, GarbageJointsAreKeptAsTheyCameAndLeftOutOfNlpmsDistance) {
   const auto filtered = engine::resolve_for_clip(s, clip, c.garbage);
   EXPECT_TRUE(filtered.kept_joints.empty());
   EXPECT_EQ(filtered.distance_joints[kFlipping], 0);
+}
+
+// auto and a flipping joint (clip/flip_pieces.hpp, flip_piece_settings): on a capture with no
+// noise to speak of (0.003 rad here, below kAutoCleanBelow) it comes out as it came; with noise
+// it is filtered between its flips by auto's bof, and comes out different.
+TEST(Conditioning, AutoKeepsTheFlippingJointOfACleanCaptureAndFiltersANoisyOnesPieces) {
+  FilterSettings s;
+  s.method = Method::automatic;
+  s.pops = PopsMode::automatic;
+  for (const double noise : {0.0, 0.03}) {
+    Clip clip = test_clip(1, nullptr);
+    if (noise > 0) add_noise(GaussianNoise{noise, 11}, clip.rotation_span());
+    make_hemisphere_continuous(clip.rotation_span());
+    const ClipConditioning c = engine::condition_clip(s, clip);
+    const auto resolved = engine::resolve_for_clip(s, clip, c.garbage);
+    ASSERT_TRUE(c.garbage[kFlipping]) << noise;
+    Clip out = clip;
+    ASSERT_TRUE(engine::run_shard(resolved, clip, out, {0, clip.joints(), 0, clip.frames}).ok());
+    if (noise == 0) {
+      EXPECT_LT(resolved.noise_sigma, engine::kAutoCleanBelow);
+      EXPECT_TRUE(resolved.flip_joints.empty());
+      EXPECT_EQ(first_changed_frame(out, clip, kFlipping), -1);
+    } else {
+      ASSERT_EQ(resolved.flip_joints.size(), std::size_t(clip.joints()));
+      EXPECT_EQ(resolved.flip_joints[kFlipping], 1);
+      EXPECT_EQ(resolved.flip_settings.method, Method::bof);
+      EXPECT_NE(first_changed_frame(out, clip, kFlipping), -1);
+    }
+  }
 }
 
 TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
