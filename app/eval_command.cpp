@@ -50,8 +50,7 @@ void read_all(ClipSource& source, const EvalConfig& config, int frame_step,
       ++*failed;
       continue;
     }
-    clips.push_back(
-        prepare_clip(source.clip_path(i), decimate(std::move(*clip), frame_step), config));
+    clips.push_back(prepare_clip(source.clip_path(i), std::move(*clip), config, frame_step));
   }
 }
 

@@ -110,7 +110,8 @@ struct ClipReference {
   std::vector<std::vector<ContactInterval>> contacts;  // per foot of geometry.feet
   PositionSums clean_positions;  // the clean clip's own jitter and skating, mm
   // [F][J], or empty: 1 where the clean clip itself has a glitch, a sample the pop stage flags on
-  // it (one-frame jumps of the capture, eval_run.cpp); Score's "unglitched" sums leave them out.
+  // its source at the source's own rate (one-frame jumps of the capture, eval_run.cpp
+  // prepare_clip); Score's "unglitched" sums leave them out.
   std::vector<std::uint8_t> glitches;
 };
 ClipReference make_reference(const Clip& clean, const ClipGeometry& geometry,

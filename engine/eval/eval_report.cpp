@@ -356,17 +356,19 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
       nlohmann::json garbage = nlohmann::json::array();
       for (std::size_t jt = 0; jt < n.garbage.size(); ++jt)
         if (n.garbage[jt]) garbage.push_back(r.clips[k].clean.skeleton->joint_names[jt]);
-      per_clip.push_back({{"clip", r.clips[k].name},
-                          {"psnr_db", r.noisy_scores[c][k].psnr()},
-                          {"mpjpe_mm", json_number(r.noisy_scores[c][k].mpjpe_mm())},
-                          {"jitter_mm", json_number(r.noisy_scores[c][k].jitter_mm())},
-                          {"pops_found", n.pops},
-                          {"samples", r.clips[k].clean.rotations.size() / 4},
-                          {"popped", n.popped},
-                          {"pops_caught", n.pops_caught},
-                          {"pops_left", n.pops_left},
-                          {"false_repairs", n.false_repairs},
-                          {"garbage_joints", garbage}});
+      per_clip.push_back(
+          {{"clip", r.clips[k].name},
+           {"psnr_db", r.noisy_scores[c][k].psnr()},
+           {"psnr_db_unglitched", json_number(r.noisy_scores[c][k].unglitched_psnr())},
+           {"mpjpe_mm", json_number(r.noisy_scores[c][k].mpjpe_mm())},
+           {"jitter_mm", json_number(r.noisy_scores[c][k].jitter_mm())},
+           {"pops_found", n.pops},
+           {"samples", r.clips[k].clean.rotations.size() / 4},
+           {"popped", n.popped},
+           {"pops_caught", n.pops_caught},
+           {"pops_left", n.pops_left},
+           {"false_repairs", n.false_repairs},
+           {"garbage_joints", garbage}});
     }
     cj["noisy_per_clip"] = per_clip;
     conditions.push_back(cj);

@@ -90,24 +90,32 @@ std::vector<float> make_noisy_translations(const Clip& clean, const NoiseConditi
 // The impossible steps are a property of the source, so eval finds them in the clean clip: every
 // method and noise condition then sees the same segments, and the synthetic noise (whose pops
 // stay below the threshold anyway) can neither add nor hide a cut.
-EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config) {
+EvalClip prepare_clip(std::string name, Clip source, const EvalConfig& config, int frame_step) {
+  // The capture's own glitches, found at its own rate: what the pop stage flags on the source
+  // (counting only, on a copy), kept at the frames the decimation keeps. Below 60 fps the stage
+  // takes some fast motion for pops, and a glitch set found there would excuse every such flag.
+  std::vector<float> copy = source.rotations;
+  const int source_joints = source.joints();
+  const ClipConditioning glitches =
+      condition_rotations(PopsMode::detect, {copy.data(), source.frames, source_joints},
+                          source.frame_time, source.skeleton->parents);
+  const int step = std::max(frame_step, 1);
+
   EvalClip c;
   c.name = std::move(name);
-  c.clean = std::move(clean);
+  c.clean = decimate(std::move(source), step);
   if (config.split_impossible)
     c.steps = find_impossible_steps(c.clean.rotation_view(), c.clean.frame_time, config.split);
   c.segments = split_segments(c.clean.frames, c.steps);
   c.geometry = describe_clip(c.clean, config.unit_cm, c.segments);
   c.reference = make_reference(c.clean, c.geometry, c.segments);
-  // The clean clip's own glitches: what the pop stage flags on it (counting only, on a copy).
-  std::vector<float> copy = c.clean.rotations;
-  const ClipConditioning glitches =
-      condition_rotations(PopsMode::detect, {copy.data(), c.clean.frames, c.clean.joints()},
-                          c.clean.frame_time, c.clean.skeleton->parents);
-  c.reference.glitches.assign(copy.size() / 4, 0);
-  for (std::size_t p = 0; p + 1 < glitches.pop_samples.size(); p += 2)
-    c.reference.glitches[std::size_t(glitches.pop_samples[p]) * std::size_t(c.clean.joints()) +
+  c.reference.glitches.assign(std::size_t(c.clean.frames) * std::size_t(source_joints), 0);
+  for (std::size_t p = 0; p + 1 < glitches.pop_samples.size(); p += 2) {
+    const int t = glitches.pop_samples[p];
+    if (t % step != 0) continue;
+    c.reference.glitches[std::size_t(t / step) * std::size_t(source_joints) +
                          std::size_t(glitches.pop_samples[p + 1])] = 1;
+  }
   return c;
 }
 

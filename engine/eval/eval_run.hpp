@@ -98,9 +98,10 @@ std::vector<float> make_noisy(const Clip& clean, const NoiseCondition& condition
 std::vector<float> make_noisy_translations(const Clip& clean, const NoiseCondition& condition,
                                            double body_height, std::uint64_t seed);
 
-// Prepares a clip: the impossible steps and segments (when config.split_impossible), the
-// geometry and the reference.
-EvalClip prepare_clip(std::string name, Clip clean, const EvalConfig& config);
+// Prepares a clip from its source: every frame_step-th frame of it (a lower frame rate,
+// core/clip.hpp decimate), the impossible steps and segments (when config.split_impossible), the
+// geometry and the reference, whose glitches are found on the source at its own rate.
+EvalClip prepare_clip(std::string name, Clip source, const EvalConfig& config, int frame_step = 1);
 
 // Runs every task on all threads of the current TBB arena; `progress(done, total)` is called
 // under a lock after each task (may be empty).

@@ -251,6 +251,34 @@ TEST(EvalCommand, TheUnglitchedScoreLeavesTheReferencesOwnGlitchesOut) {
       << automatic.dump();
 }
 
+// The reference's glitches are found on the source at its own rate and kept at the frames a
+// --frame-step keeps: a glitch on a dropped frame is no glitch at the lower rate, and one on a
+// kept frame is, whatever the lower rate's own pop test would take for one.
+TEST(EvalRun, TheReferencesGlitchesAreFoundAtTheSourcesRate) {
+  Clip clip = engine::make_demo_library()[0].clip;
+  ASSERT_NEAR(clip.frame_time, 1.0 / 120, 1e-9);
+  clip.frames = 240;
+  clip.rotations.resize(std::size_t(clip.frames) * clip.joints() * 4);
+  clip.translations.resize(std::size_t(clip.frames) * clip.joints() * 3);
+  const int joint = clip.joints() / 2, J = clip.joints();
+  for (int t : {80, 121}) {  // 80 is kept at --frame-step 4 (frame 20), 121 is dropped
+    float* q = clip.rotation_span().at(t, joint);
+    store_quat(load_quat(q) * exp(Vec3{0.6, 0, 0}), q);
+  }
+  const EvalClip full = prepare_clip("glitch", clip, EvalConfig{});
+  ASSERT_EQ(full.reference.glitches.size(), std::size_t(240) * std::size_t(J));
+  EXPECT_EQ(std::count(full.reference.glitches.begin(), full.reference.glitches.end(), 1), 2);
+  EXPECT_EQ(full.reference.glitches[std::size_t(80) * std::size_t(J) + std::size_t(joint)], 1);
+  EXPECT_EQ(full.reference.glitches[std::size_t(121) * std::size_t(J) + std::size_t(joint)], 1);
+
+  const EvalClip low = prepare_clip("glitch", clip, EvalConfig{}, 4);
+  EXPECT_EQ(low.clean.frames, 60);
+  EXPECT_NEAR(low.clean.frame_time, 4.0 / 120, 1e-9);
+  ASSERT_EQ(low.reference.glitches.size(), std::size_t(60) * std::size_t(J));
+  EXPECT_EQ(std::count(low.reference.glitches.begin(), low.reference.glitches.end(), 1), 1);
+  EXPECT_EQ(low.reference.glitches[std::size_t(20) * std::size_t(J) + std::size_t(joint)], 1);
+}
+
 TEST(EvalCommand, UsageErrorsSayWhy) {
   test::TempDir out("eval-usage");
   const std::string o = " -o '" + out.path().string() + "'";
