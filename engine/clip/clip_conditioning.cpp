@@ -13,6 +13,7 @@
 #include "engine/clip/flip_pieces.hpp"
 #include "engine/run/run_summary.hpp"
 #include "kernels/motion_split.hpp"
+#include "kernels/pop_detour.hpp"
 #include "kernels/pop_repair.hpp"
 #include "kernels/pop_skeleton.hpp"
 
@@ -33,12 +34,15 @@ ClipFacts ClipConditioning::facts() const {
 
 namespace {
 
-// `out` ([F][J][4], a copy of `in`) with each joint's flagged runs repaired (repair_pops).
-void repair_flagged(RotationView in, std::span<const std::uint8_t> flags, std::span<float> out) {
+// `out` ([F][J][4], a copy of `in`) with each joint's flagged runs repaired (repair_pops), but
+// for the `skip` joints (one entry per joint), left as they are in `out`.
+void repair_flagged(RotationView in, std::span<const std::uint8_t> flags,
+                    std::span<const std::uint8_t> skip, std::span<float> out) {
   const int F = in.frames, J = in.joints;
   std::vector<Quat> curve(static_cast<std::size_t>(F)), fixed(static_cast<std::size_t>(F));
   std::vector<std::uint8_t> joint_flags(static_cast<std::size_t>(F));
   for (int j = 0; j < J; ++j) {
+    if (skip[std::size_t(j)]) continue;
     bool any = false;
     for (int t = 0; t < F; ++t) {
       joint_flags[std::size_t(t)] = flags[std::size_t(t) * std::size_t(J) + std::size_t(j)];
@@ -138,7 +142,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
 
   // Constant and rounding-only joints are repaired too (a pop on a still joint is the easiest to
   // tell); a flipping joint is all pops to the test over its whole curve: where the stage
-  // repairs without the skeleton test, it is tested between its flips instead.
+  // repairs, it is tested and repaired between its flips instead (it has no skeleton neighbours
+  // to ask: it is garbage).
   std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
   for (int j = 0; j < J; ++j)
     flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
@@ -168,9 +173,17 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     job.flagged_samples = flagged;
     job.repair = c.repaired && !skeleton_test;
     run_joints_in_parallel(job);
-    if (job.repair)
+    if (c.repaired)
       repair_between_flips(job.io.rotations, flipping, job.params, flagged, found, repaired);
     if (skeleton_test) {
+      // A pop that fast motion hides from the fit still makes a detour (kernels/pop_detour.hpp).
+      PopDetourJob detour;
+      detour.rotations = {rotations.data + offset, seg.frames(), J};
+      detour.skip = flipping;
+      detour.flags = flagged;
+      detour.threshold = pop_detour_threshold(frame_time);
+      if (const Status s = detour.run(); !s.ok())
+        throw std::runtime_error("pop repair: " + s.message());
       PopSkeletonJob skeleton;
       skeleton.rotations = {rotations.data + offset, seg.frames(), J};
       skeleton.parents = parents;
@@ -181,7 +194,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
         throw std::runtime_error("pop repair: " + s.message());
       std::fill(found.begin(), found.end(), 0);
       for (std::size_t i = 0; i < flagged.size(); ++i) found[i % std::size_t(J)] += flagged[i];
-      if (c.repaired) repair_flagged(skeleton.rotations, flagged, repaired);
+      if (c.repaired) repair_flagged(skeleton.rotations, flagged, flipping, repaired);
     }
     for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
     for (std::size_t i = 0; i < flagged.size(); ++i)
