@@ -28,20 +28,33 @@ Status PopDetourJob::validate() const {
                          std::to_string(F * J) + "), got " + std::to_string(flags.size()));
   if (!(threshold > 0) || !std::isfinite(threshold))
     return Status::error("pop detour test: threshold must be a finite angle > 0 rad");
+  const int end = joint_end < 0 ? rotations.joints : joint_end;
+  if (joint_begin < 0 || joint_begin > end || end > rotations.joints)
+    return Status::error("pop detour test: joints [" + std::to_string(joint_begin) + ", " +
+                         std::to_string(end) + ") outside the clip's " +
+                         std::to_string(rotations.joints));
+  if (steps && (steps->joints != rotations.joints || step_offset < 0 ||
+                (rotations.frames > 1 && step_offset + rotations.frames > steps->frames)))
+    return Status::error("pop detour test: the step angles do not cover the rotations' frames");
   return {};
 }
 
 Status PopDetourJob::run() const {
   if (Status s = validate(); !s) return s;
   const int F = rotations.frames, J = rotations.joints;
+  const int end = joint_end < 0 ? J : joint_end;
   int set = 0;
-  std::vector<double> detour(std::size_t(std::max(F, 0)), 0.0);
-  for (int j = 0; j < J; ++j) {
+  std::vector<double> step(std::size_t(std::max(F - 1, 0))), detour(std::size_t(std::max(F, 0)));
+  for (int j = joint_begin; j < end; ++j) {
     if (!skip.empty() && skip[std::size_t(j)]) continue;
+    for (int t = 0; t + 1 < F; ++t)
+      step[std::size_t(t)] =
+          steps ? steps->at(step_offset + t, j)
+                : geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
     for (int t = 1; t + 1 < F; ++t)
       detour[std::size_t(t)] =
-          pop_detour(load_quat(rotations.at(t - 1, j)), load_quat(rotations.at(t, j)),
-                     load_quat(rotations.at(t + 1, j)));
+          step[std::size_t(t - 1)] + step[std::size_t(t)] -
+          geodesic(load_quat(rotations.at(t - 1, j)), load_quat(rotations.at(t + 1, j)));
     for (int t = 2; t + 2 < F; ++t) {
       const double e = detour[std::size_t(t)];
       if (!(e > threshold) || e < detour[std::size_t(t - 1)] || !(e > detour[std::size_t(t + 1)]))

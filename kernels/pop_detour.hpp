@@ -24,6 +24,7 @@
 #include "core/quaternion.hpp"
 #include "core/status.hpp"
 #include "kernels/motion_io.hpp"
+#include "kernels/motion_split.hpp"
 
 namespace mocap {
 
@@ -46,6 +47,14 @@ struct PopDetourJob {
   // find_pops come in here).
   std::span<std::uint8_t> flags;
   int* flagged = nullptr;  // optional out: how many flags the job set that were not set before
+  // The joints tested, [joint_begin, joint_end) (-1: to the last); the job writes only their
+  // flags, so slices can run as parallel tasks.
+  int joint_begin = 0, joint_end = -1;
+  // Optional: the step angles theta(q[t], q[t+1]) already measured on these very rotations (the
+  // joint classification's, kernels/motion_split.hpp), step t of the job read as
+  // steps->at(step_offset + t, j); without them the job measures them (the same bits).
+  const StepAngles* steps = nullptr;
+  int step_offset = 0;
 
   Status validate() const;
   Status run() const;

@@ -58,22 +58,37 @@ void repair_flagged(RotationView in, std::span<const std::uint8_t> flags,
   }
 }
 
-// The job's joints as parallel tasks (a clip's few long joints would otherwise keep one thread
-// busy while the others wait for the next clip); each task writes its joints' own outputs, so
-// the results are the same for any thread count.
-void run_joints_in_parallel(const PopRepairJob& job) {
+// A job's joints as parallel tasks (a clip's few long joints would otherwise keep one thread
+// busy while the others wait for the next clip); `slice(job, begin, end)` is the job on joints
+// [begin, end), which writes only those joints' outputs, so the results are the same for any
+// thread count.
+template <class Job, class Slice>
+void run_joints_in_parallel(const Job& job, int joints, Slice slice) {
   std::mutex mutex;
   std::string error;
-  tbb::parallel_for(tbb::blocked_range<int>(0, job.io.rotations.joints, 1), [&](const auto& range) {
-    PopRepairJob slice = job;
-    slice.io.joint_begin = range.begin();
-    slice.io.joint_end = range.end();
-    if (const Status s = slice.run(); !s.ok()) {
+  tbb::parallel_for(tbb::blocked_range<int>(0, joints, 1), [&](const auto& range) {
+    if (const Status s = slice(job, range.begin(), range.end()).run(); !s.ok()) {
       const std::lock_guard lock(mutex);
       if (error.empty()) error = s.message();
     }
   });
   if (!error.empty()) throw std::runtime_error("pop repair: " + error);
+}
+
+void run_joints_in_parallel(const PopRepairJob& job) {
+  run_joints_in_parallel(job, job.io.rotations.joints, [](PopRepairJob slice, int begin, int end) {
+    slice.io.joint_begin = begin;
+    slice.io.joint_end = end;
+    return slice;
+  });
+}
+
+void run_joints_in_parallel(const PopDetourJob& job) {
+  run_joints_in_parallel(job, job.rotations.joints, [](PopDetourJob slice, int begin, int end) {
+    slice.joint_begin = begin;
+    slice.joint_end = end;
+    return slice;
+  });
 }
 
 // Flipping joints' pops, found and repaired piece by piece between the joint's flips
@@ -177,13 +192,15 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
       repair_between_flips(job.io.rotations, flipping, job.params, flagged, found, repaired);
     if (skeleton_test) {
       // A pop that fast motion hides from the fit still makes a detour (kernels/pop_detour.hpp).
+      // With the classification's step angles.
       PopDetourJob detour;
       detour.rotations = {rotations.data + offset, seg.frames(), J};
       detour.skip = flipping;
       detour.flags = flagged;
       detour.threshold = pop_detour_threshold(frame_time);
-      if (const Status s = detour.run(); !s.ok())
-        throw std::runtime_error("pop repair: " + s.message());
+      detour.steps = &angles;
+      detour.step_offset = seg.begin;
+      run_joints_in_parallel(detour);
       PopSkeletonJob skeleton;
       skeleton.rotations = {rotations.data + offset, seg.frames(), J};
       skeleton.parents = parents;

@@ -1,8 +1,9 @@
 // Tests of the detour test (kernels/pop_detour.hpp): the detour is never negative, zero for a
 // turn at constant speed whatever its speed, and for a pop across a turn the spherical triangle's
 // excess; the job flags the largest detour of a pop above its threshold and not its neighbours',
-// keeps the flags it was given, leaves skipped joints and the frames next to the ends alone, and
-// says what is wrong with its inputs; on the clean shared clips at 30 fps it flags next to nothing.
+// keeps the flags it was given, leaves skipped joints and the frames next to the ends alone, reads
+// step angles it is given and runs in joint slices to the same flags, and says what is wrong with
+// its inputs; on the clean shared clips at 30 fps it flags next to nothing.
 #include "kernels/pop_detour.hpp"
 
 #include <gtest/gtest.h>
@@ -149,6 +150,52 @@ TEST(PopDetour, TheThresholdGrowsAsTheSquareOfTheFrameTimeBelow30Fps) {
   EXPECT_EQ(pop_detour_threshold(1.0 / 120), kPopDetour);
   EXPECT_NEAR(pop_detour_threshold(1.0 / 24), kPopDetour * 1.25 * 1.25, 1e-12);
   EXPECT_NEAR(pop_detour_threshold(1.0 / 15), kPopDetour * 4, 1e-12);
+}
+
+// Given the step angles the classification measured (of a longer clip, from an offset), and run
+// in joint slices, the job sets the same flags as on its own.
+TEST(PopDetourJob, StepAnglesGivenAndJointSlicesSetTheSameFlags) {
+  constexpr int F = 200, J = 5, kOffset = 30, kFrames = 120;
+  Motion m = turning_motion(F, J);
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int t = 0; t < F; ++t)
+    for (int j = 0; j < J; ++j)
+      if (u(rng) < 0.06)
+        store_quat(m.at(t, j) * exp((0.3 + 0.7 * u(rng)) * unit(log(test::random_rotation(rng)))),
+                   m.span().at(t, j));
+  std::vector<double> angles(std::size_t(J) * (F - 1));
+  for (int j = 0; j < J; ++j)
+    for (int t = 0; t + 1 < F; ++t)
+      angles[std::size_t(j) * (F - 1) + std::size_t(t)] = geodesic(m.at(t, j), m.at(t + 1, j));
+  const StepAngles steps{angles, F, J};
+  const RotationView part{m.rotations.data() + std::size_t(kOffset) * J * 4, kFrames, J};
+
+  std::vector<std::uint8_t> alone(std::size_t(kFrames) * J, 0), given = alone, sliced = alone;
+  PopDetourJob job;
+  job.rotations = part;
+  job.flags = alone;
+  ASSERT_TRUE(job.run().ok());
+  ASSERT_GE(std::count(alone.begin(), alone.end(), 1), 5);
+  job.flags = given;
+  job.steps = &steps;
+  job.step_offset = kOffset;
+  ASSERT_TRUE(job.run().ok());
+  EXPECT_EQ(given, alone);
+  job.flags = sliced;
+  for (int j = 0; j < J; j += 2) {
+    job.joint_begin = j;
+    job.joint_end = std::min(j + 2, J);
+    ASSERT_TRUE(job.run().ok()) << j;
+  }
+  EXPECT_EQ(sliced, alone);
+
+  job.joint_begin = 0;
+  job.joint_end = J + 1;
+  EXPECT_NE(job.validate().message().find("joints [0, 6) outside the clip's 5"), std::string::npos);
+  job.joint_end = -1;
+  job.step_offset = F - kFrames + 1;
+  EXPECT_NE(job.validate().message().find("step angles do not cover"), std::string::npos);
 }
 
 TEST(PopDetourJob, SaysWhatIsWrongWithItsInputs) {
