@@ -353,9 +353,13 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
     nlohmann::json per_clip = nlohmann::json::array();
     for (std::size_t k = 0; k < r.clips.size(); ++k) {
       const NoisyClip& n = r.noisy[c][k];
+      const auto& names = r.clips[k].clean.skeleton->joint_names;
       nlohmann::json garbage = nlohmann::json::array();
       for (std::size_t jt = 0; jt < n.garbage.size(); ++jt)
-        if (n.garbage[jt]) garbage.push_back(r.clips[k].clean.skeleton->joint_names[jt]);
+        if (n.garbage[jt]) garbage.push_back(names[jt]);
+      nlohmann::json left = nlohmann::json::array();
+      for (const auto& [frame, joint] : n.left_samples)
+        left.push_back({frame, names[std::size_t(joint)]});
       per_clip.push_back(
           {{"clip", r.clips[k].name},
            {"psnr_db", r.noisy_scores[c][k].psnr()},
@@ -367,6 +371,7 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
            {"popped", n.popped},
            {"pops_caught", n.pops_caught},
            {"pops_left", n.pops_left},
+           {"pops_left_samples", left},
            {"false_repairs", n.false_repairs},
            {"garbage_joints", garbage}});
     }

@@ -234,7 +234,10 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
         for (std::size_t sample = 0; sample < noisy.rotations.size() / 4; ++sample)
           if (moved(noisy.rotations, sample)) {
             ++noisy.popped;
-            if (moved(noisy.repaired, sample)) ++noisy.pops_left;
+            if (moved(noisy.repaired, sample)) {
+              ++noisy.pops_left;
+              noisy.left_samples.push_back({int(sample / J), int(sample % J)});
+            }
           }
         for (std::size_t p = 0; p + 1 < cond.pop_samples.size(); p += 2) {
           const std::size_t sample =

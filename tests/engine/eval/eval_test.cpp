@@ -217,10 +217,22 @@ TEST(EvalCommand, PopStageRepairRepairsBelowSixtyFps) {
     EXPECT_EQ(report["pop_stage"], repair ? "repair" : "auto");
     psnr[repair] = report["methods"][0]["automatic"]["results"][0]["psnr_db"].get<double>();
     noisy = report["conditions"][0]["noisy"]["psnr_db"].get<double>();
-    std::size_t found = 0;
-    for (const auto& clip : report["conditions"][0]["noisy_per_clip"])
+    std::size_t found = 0, left = 0;
+    for (const auto& clip : report["conditions"][0]["noisy_per_clip"]) {
       found += clip["pops_found"].get<std::size_t>();
+      // Each pop left named by its frame and joint, the noisy input's unglitched score beside.
+      ASSERT_EQ(clip["pops_left_samples"].size(), clip["pops_left"].get<std::size_t>());
+      for (const auto& sample : clip["pops_left_samples"]) {
+        EXPECT_GE(sample[0].get<int>(), 0);
+        EXPECT_FALSE(sample[1].get<std::string>().empty());
+      }
+      left += clip["pops_left"].get<std::size_t>();
+      EXPECT_TRUE(clip.contains("psnr_db_unglitched"));
+    }
     EXPECT_GT(found, 5u) << "counted either way";
+    if (!repair) {
+      EXPECT_GT(left, 5u) << "counting leaves every pop";
+    }
   }
   EXPECT_LT(psnr[0], noisy + 0.5);
   EXPECT_GT(psnr[1], noisy + 5.0);
