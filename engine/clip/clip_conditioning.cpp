@@ -138,6 +138,18 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
                                      std::span<const int> parents) {
   ClipConditioning c;
   const int J = rotations.joints;
+  const bool high_rate = frame_time > 0 && 1.0 / frame_time >= kPopsRepairMinFps;
+  if (mode == PopsMode::automatic && !high_rate) {
+    // Below kPopsRepairMinFps auto counts first, and repairs only a clip whose flags are many
+    // (kAutoRepairMinFlagged, filter_settings.hpp); the low-rate test needs the skeleton.
+    ClipConditioning counted =
+        condition_rotations(PopsMode::detect, rotations, frame_time, parents);
+    const double samples = double(rotations.frames) * double(J);
+    if (std::size_t(J) != parents.size() || !(samples > 0) ||
+        double(counted.pop_count()) < kAutoRepairMinFlagged * samples)
+      return counted;
+    return condition_rotations(PopsMode::repair, rotations, frame_time, parents);
+  }
   const RotationView view{rotations.data, rotations.frames, J};
   // Joint by joint in parallel tasks, like the pop stage below (each writes its own entry).
   // The step angles the classification measures are kept for the impossible-step test below.
@@ -163,9 +175,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   for (int j = 0; j < J; ++j)
     flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
   // Below kPopsRepairMinFps the per-joint test alone flags fast limbs; with the skeleton known,
-  // its neighbours rule out some of them (kernels/pop_skeleton.hpp), not yet enough for auto to
-  // repair there (filter_settings.hpp, kPopsRepairMinFps).
-  const bool high_rate = frame_time > 0 && 1.0 / frame_time >= kPopsRepairMinFps;
+  // its neighbours rule out most of them (kernels/pop_skeleton.hpp), and the detour test finds
+  // the pops fast motion hides from the fit (kernels/pop_detour.hpp).
   const bool skeleton_test = !high_rate && std::size_t(J) == parents.size();
   c.repaired = mode == PopsMode::repair || (mode == PopsMode::automatic && high_rate);
   std::vector<int> found(std::size_t(J), 0);
@@ -301,7 +312,7 @@ std::string describe_conditioning(const nlohmann::json& summary) {
         "  pops: {} found in {} clips{}, {}\n", found, p["clips"].get<std::size_t>(), top,
         fixed == found ? std::string("all repaired")
         : fixed == 0   ? std::string("none repaired (--pops repair to force)")
-                       : fmt::format("{} repaired (below 60 fps only counted)", fixed));
+                       : fmt::format("{} repaired (below 60 fps only in clips with many)", fixed));
   }
   return line + describe_garbage(g);
 }

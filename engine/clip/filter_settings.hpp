@@ -37,19 +37,16 @@ enum class Method : std::uint8_t {
 };
 
 // Pop repair before the filter (engine/clip/clip_conditioning.hpp): off = the spec's filter
-// exactly; auto = repair at kPopsRepairMinFps and above, detect (count only) below.
+// exactly; auto = repair at kPopsRepairMinFps and above; below, repair a clip whose pop test flags
+// at least kAutoRepairMinFlagged of its samples (a clip with pops) and only count elsewhere.
 enum class PopsMode { off, detect, repair, automatic };
-// Measured with `eval` on ../shared/data/bvh (README "Pops"): at 120 fps the repair gains 20 dB
-// on the spec's pops and costs 0.05-0.7 dB on gaussian noise (where it mostly repairs glitches
-// of the captures themselves); at 30 fps (--frame-step 4) a quadratic no longer predicts fast
-// limbs well enough: it flags 0.17 % of clean samples and loses 7-9 dB at 0.008 rad, while the
-// spec's pops (rate 1 %) gain 7 dB; repairing only clips with over 0.5 % of samples flagged still
-// lost 6 dB (17 dB on a 44-frame clip), so below 60 fps auto only counts. With the skeleton test
-// (kernels/pop_skeleton.hpp) 0.085 % of clean samples stay flagged at 30 fps, and repairing them
-// still lost 3.5 dB pooled at 0.008 rad (8.6 dB on 02_01, 4 false repairs). With the low-rate
-// parameters (clip_conditioning.hpp, pop_params_at) 0.011 % stay flagged and repairing loses
-// 0.42 dB pooled at 0.008 rad (one clip 0.44 dB below its noisy input), removes 96.4 % of the
-// spec's pops and leaves one clip at 43.8 dB on them: auto still counts.
+// Below 60 fps a quadratic no longer follows fast limbs, and the low-rate test (skeleton and
+// detour tests, clip_conditioning.hpp) still flags some fast motion and the captures' own
+// glitches on a clean capture; repairing those costs more on light noise than pops gain, so auto
+// repairs there only where the flags are many. Measured on ../shared/data/bvh at 30 and 24 fps
+// (README "Pops and garbage joints"): clean, gaussian 0.008-0.24 rad and 0.02 rad + positions
+// flag at most 0.13 % of a clip's samples, the spec's pops (rate 1 %) at least 0.83 %.
+inline constexpr double kAutoRepairMinFlagged = 0.004;
 inline constexpr double kPopsRepairMinFps = 60;
 std::optional<PopsMode> parse_pops_mode(std::string_view name);
 std::string_view to_string(PopsMode mode);

@@ -29,7 +29,7 @@ struct EvalConfig {
   MotionSplitParams split;
   bool repaired = false;  // some grid runs on the conditioned clips: prepare them
   // The conditioning of those clips: clean's default (automatic: repairs at 60 fps and more,
-  // only counts below) or repair at every frame rate (--pop-stage repair).
+  // below only clips with many flags) or repair at every frame rate (--pop-stage repair).
   PopsMode pop_stage = PopsMode::automatic;
   bool lock_feet = false;  // some grid locks the feet: find the noisy clips' contacts
   // auto's runs end with the engine's guard (engine/clip/motion_guard.hpp), as `clean` does.

@@ -1,7 +1,8 @@
 // Tests of the skeleton test of pop flags (kernels/pop_skeleton.hpp) and of the pop stage with a
 // skeleton below 60 fps (engine/clip/clip_conditioning.hpp): at 30 fps a single-joint pop is still
-// found and repaired, while a one-frame excursion of a whole limb (a fast kick seen at 30 fps),
-// which the per-joint test alone takes for pops, is left alone.
+// found and repaired (by auto where a clip's pops are many), while a one-frame excursion of a
+// whole limb (a fast kick seen at 30 fps), which the per-joint test alone takes for pops, is left
+// alone.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -60,13 +61,27 @@ TEST(PopSkeleton, ASingleJointPopAt30FpsIsRepaired) {
   EXPECT_EQ(flagged_at(c, kAt, 2), 1);
   // Repaired: back near the clean motion (the slerp between its neighbours), not 0.6 rad away.
   EXPECT_LT(geodesic(popped.at(kAt, 2), clean.at(kAt, 2)), 0.05);
-  // And auto still only counts below 60 fps: the pop is found, the clip is left as it came.
+  // auto below 60 fps: one pop in 450 samples (under kAutoRepairMinFlagged) is found and
+  // counted, the clip left as it came...
   test::Motion counted = limb({0, 0, 1, 0, 0}, 0.6, {0.6, 0.0, 0.8});
+  ASSERT_LT(1.0, engine::kAutoRepairMinFlagged * kFrames * kJoints);
   const engine::ClipConditioning a = engine::condition_rotations(
       engine::PopsMode::automatic, counted.span(), kFrameTime, kParents);
   EXPECT_FALSE(a.repaired);
   EXPECT_EQ(flagged_at(a, kAt, 2), 1);
   EXPECT_GT(geodesic(counted.at(kAt, 2), clean.at(kAt, 2)), 0.5);
+  // ...and three (over it) are repaired.
+  test::Motion many = limb({0, 0, 1, 0, 0}, 0.6, {0.6, 0.0, 0.8});
+  const int more[2][2] = {{20, 1}, {70, 3}};
+  for (const auto& [t, j] : more)
+    store_quat(many.at(t, j) * exp(Vec3{0.0, 0.6, 0.0}), many.span().at(t, j));
+  ASSERT_GE(3.0, engine::kAutoRepairMinFlagged * kFrames * kJoints);
+  const engine::ClipConditioning b =
+      engine::condition_rotations(engine::PopsMode::automatic, many.span(), kFrameTime, kParents);
+  EXPECT_TRUE(b.repaired);
+  EXPECT_EQ(b.pop_count(), 3u);
+  EXPECT_LT(geodesic(many.at(kAt, 2), clean.at(kAt, 2)), 0.05);
+  for (const auto& [t, j] : more) EXPECT_LT(geodesic(many.at(t, j), clean.at(t, j)), 0.05) << t;
 }
 
 TEST(PopSkeleton, ACoherentOneFrameLimbSwingAt30FpsIsLeftAlone) {

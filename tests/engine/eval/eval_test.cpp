@@ -195,9 +195,10 @@ TEST(EvalCommand, PopStageRowsRunAfterThePopRepairAndBeatThePlainFiltersOnPops) 
   EXPECT_GT(automatic_psnr(4, 0), noisy_pops + 3.0);
 }
 
-// --pop-stage repair: below 60 fps the +pops rows and auto repair the pops, where the default
-// stage (clean's --pops auto) only counts them and auto ends at its noisy input.
-TEST(EvalCommand, PopStageRepairRepairsBelowSixtyFps) {
+// Below 60 fps the default stage (clean's --pops auto) repairs a clip whose pops are many (the
+// spec's rate of 1 %: at least kAutoRepairMinFlagged of its samples flagged) and only counts them
+// in a clip with few (rate 0.1 %), which ends at its noisy input; --pop-stage repair repairs both.
+TEST(EvalCommand, BelowSixtyFpsAutoRepairsClipsWithManyPopsAndPopStageRepairEvery) {
   test::TempDir in("eval-stage-in");
   const auto demo = engine::make_demo_library();
   for (int i : {0, 1}) {  // the walk and the run, 120 fps; --frame-step 4 makes them 30 fps
@@ -206,36 +207,48 @@ TEST(EvalCommand, PopStageRepairRepairsBelowSixtyFps) {
     fs::create_directories(target.parent_path());
     ASSERT_TRUE(io::write_bvh(demo[std::size_t(i)].clip, target, &error)) << error;
   }
-  double psnr[2] = {0, 0}, noisy = 0;
+  double psnr[2][2] = {{0, 0}, {0, 0}}, noisy[2] = {0, 0};
   for (const int repair : {0, 1}) {
     test::TempDir out(repair ? "eval-stage-repair" : "eval-stage-auto");
     const auto r = test::run_cli("eval '" + in.path().string() + "' -o '" + out.path().string() +
-                                 "' --noise impulse --methods auto --frame-step 4 --no-plots" +
+                                 "' --noise impulse --noise impulse:0.001 --methods auto "
+                                 "--frame-step 4 --no-plots" +
                                  (repair ? " --pop-stage repair" : ""));
     ASSERT_EQ(r.exit_code, 0) << r.err;
     const auto report = nlohmann::json::parse(test::read_text(out / "report.json"));
     EXPECT_EQ(report["pop_stage"], repair ? "repair" : "auto");
-    psnr[repair] = report["methods"][0]["automatic"]["results"][0]["psnr_db"].get<double>();
-    noisy = report["conditions"][0]["noisy"]["psnr_db"].get<double>();
-    std::size_t found = 0, left = 0;
-    for (const auto& clip : report["conditions"][0]["noisy_per_clip"]) {
-      found += clip["pops_found"].get<std::size_t>();
-      // Each pop left named by its frame and joint, the noisy input's unglitched score beside.
-      ASSERT_EQ(clip["pops_left_samples"].size(), clip["pops_left"].get<std::size_t>());
-      for (const auto& sample : clip["pops_left_samples"]) {
-        EXPECT_GE(sample[0].get<int>(), 0);
-        EXPECT_FALSE(sample[1].get<std::string>().empty());
+    for (std::size_t c = 0; c < 2; ++c) {
+      psnr[repair][c] = report["methods"][0]["automatic"]["results"][c]["psnr_db"].get<double>();
+      noisy[c] = report["conditions"][c]["noisy"]["psnr_db"].get<double>();
+      std::size_t found = 0, left = 0, popped = 0, samples = 0;
+      for (const auto& clip : report["conditions"][c]["noisy_per_clip"]) {
+        found += clip["pops_found"].get<std::size_t>();
+        samples += clip["samples"].get<std::size_t>();
+        // Each pop left named by its frame and joint, the noisy input's unglitched score beside.
+        ASSERT_EQ(clip["pops_left_samples"].size(), clip["pops_left"].get<std::size_t>());
+        for (const auto& sample : clip["pops_left_samples"]) {
+          EXPECT_GE(sample[0].get<int>(), 0);
+          EXPECT_FALSE(sample[1].get<std::string>().empty());
+        }
+        left += clip["pops_left"].get<std::size_t>();
+        popped += clip["popped"].get<std::size_t>();
+        EXPECT_TRUE(clip.contains("psnr_db_unglitched"));
       }
-      left += clip["pops_left"].get<std::size_t>();
-      EXPECT_TRUE(clip.contains("psnr_db_unglitched"));
-    }
-    EXPECT_GT(found, 5u) << "counted either way";
-    if (!repair) {
-      EXPECT_GT(left, 5u) << "counting leaves every pop";
+      EXPECT_GT(found, 0u) << "counted either way, condition " << c;
+      if (c == 0) {
+        EXPECT_GE(double(found), engine::kAutoRepairMinFlagged * double(samples));
+      } else {
+        EXPECT_LT(double(found), engine::kAutoRepairMinFlagged * double(samples));
+        if (!repair) {
+          EXPECT_EQ(left, popped) << "counting leaves every pop";
+        }
+      }
     }
   }
-  EXPECT_LT(psnr[0], noisy + 0.5);
-  EXPECT_GT(psnr[1], noisy + 5.0);
+  EXPECT_GT(psnr[0][0], noisy[0] + 5.0);  // auto: many pops, repaired
+  EXPECT_GT(psnr[1][0], noisy[0] + 5.0);
+  EXPECT_LT(psnr[0][1], noisy[1] + 0.5);  // auto: few pops, counted
+  EXPECT_GT(psnr[1][1], noisy[1] + 3.0);  // repair: repaired
 }
 
 // A one-frame glitch of the capture itself: the pop stage repairs it and the score, taking the
