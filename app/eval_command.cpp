@@ -123,8 +123,8 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->group("Evaluation");
   cmd->add_option("--pop-stage", command.pop_stage,
                   "the pop stage of the +pops rows and of auto: auto (clean's default: repairs "
-                  "at 60 fps and more; below, only clips with at least 0.4 % of their samples "
-                  "flagged) or repair (repairs at every frame "
+                  "at 60 fps and more; from 20 fps, only clips with at least 0.4 % of their "
+                  "samples flagged) or repair (repairs at every frame "
                   "rate, below 60 fps with the skeleton test, as clean --pops repair)")
       ->check(CLI::IsMember({"auto", "repair"}))
       ->capture_default_str()

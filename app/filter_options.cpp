@@ -86,9 +86,10 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
   }
   cmd.add_option("--pops", pops,
                  "before the filter: repair pops (samples that jump away and come back) by "
-                 "slerp; detect: only count them; auto: repair at 60 fps and more; below (a "
-                 "30 fps limb moves almost as fast as a pop) repair a clip where at least 0.4 % "
-                 "of the samples are flagged, only count elsewhere; off: the spec's filter exactly "
+                 "slerp; detect: only count them; auto: repair at 60 fps and more; from 20 to "
+                 "60 fps (a 30 fps limb moves almost as fast as a pop) repair a clip where at "
+                 "least 0.4 % of the samples are flagged; only count elsewhere; off: the spec's "
+                 "filter exactly "
                  "(garbage joints neither looked for nor kept). Default: auto with --method "
                  "auto; off with a named method, which then is the spec's filter exactly")
       ->check(CLI::IsMember({"auto", "repair", "detect", "off"}))

@@ -141,11 +141,13 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   const bool high_rate = frame_time > 0 && 1.0 / frame_time >= kPopsRepairMinFps;
   if (mode == PopsMode::automatic && !high_rate) {
     // Below kPopsRepairMinFps auto counts first, and repairs only a clip whose flags are many
-    // (kAutoRepairMinFlagged, filter_settings.hpp); the low-rate test needs the skeleton.
+    // (kAutoRepairMinFlagged, filter_settings.hpp) at kAutoRepairMinFps or more; the low-rate
+    // test needs the skeleton.
     ClipConditioning counted =
         condition_rotations(PopsMode::detect, rotations, frame_time, parents);
     const double samples = double(rotations.frames) * double(J);
     if (std::size_t(J) != parents.size() || !(samples > 0) ||
+        !(1.0 / frame_time >= kAutoRepairMinFps) ||
         double(counted.pop_count()) < kAutoRepairMinFlagged * samples)
       return counted;
     return condition_rotations(PopsMode::repair, rotations, frame_time, parents);

@@ -37,8 +37,8 @@ struct ClipConditioning {
 // With `parents` (one per joint, -1 for a root; empty: unknown), below kPopsRepairMinFps the
 // detour test adds flags (kernels/pop_detour.hpp) and each flag must pass the skeleton test
 // (kernels/pop_skeleton.hpp); `auto` there repairs a clip whose flags number at least
-// kAutoRepairMinFlagged of its samples and only counts the others (and every clip without
-// `parents`).
+// kAutoRepairMinFlagged of its samples, from kAutoRepairMinFps up, and only counts the others
+// (and every clip without `parents`).
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
                                      std::span<const int> parents = {});
 

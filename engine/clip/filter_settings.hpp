@@ -37,16 +37,19 @@ enum class Method : std::uint8_t {
 };
 
 // Pop repair before the filter (engine/clip/clip_conditioning.hpp): off = the spec's filter
-// exactly; auto = repair at kPopsRepairMinFps and above; below, repair a clip whose pop test flags
-// at least kAutoRepairMinFlagged of its samples (a clip with pops) and only count elsewhere.
+// exactly; auto = repair at kPopsRepairMinFps and above; from kAutoRepairMinFps to there, repair a
+// clip whose pop test flags at least kAutoRepairMinFlagged of its samples (a clip with pops), and
+// only count elsewhere.
 enum class PopsMode { off, detect, repair, automatic };
 // Below 60 fps a quadratic no longer follows fast limbs, and the low-rate test (skeleton and
 // detour tests, clip_conditioning.hpp) still flags some fast motion and the captures' own
 // glitches on a clean capture; repairing those costs more on light noise than pops gain, so auto
 // repairs there only where the flags are many. Measured on ../shared/data/bvh at 30 and 24 fps
 // (README "Pops and garbage joints"): clean, gaussian 0.008-0.24 rad and 0.02 rad + positions
-// flag at most 0.13 % of a clip's samples, the spec's pops (rate 1 %) at least 0.83 %.
+// flag at most 0.13 % of a clip's samples, the spec's pops (rate 1 %) at least 0.83 %. Not below
+// kAutoRepairMinFps, where clean clips flag up to 0.52 % (15 fps) and 0.75 % (10 fps).
 inline constexpr double kAutoRepairMinFlagged = 0.004;
+inline constexpr double kAutoRepairMinFps = 20;
 inline constexpr double kPopsRepairMinFps = 60;
 std::optional<PopsMode> parse_pops_mode(std::string_view name);
 std::string_view to_string(PopsMode mode);

@@ -82,6 +82,18 @@ TEST(PopSkeleton, ASingleJointPopAt30FpsIsRepaired) {
   EXPECT_EQ(b.pop_count(), 3u);
   EXPECT_LT(geodesic(many.at(kAt, 2), clean.at(kAt, 2)), 0.05);
   for (const auto& [t, j] : more) EXPECT_LT(geodesic(many.at(t, j), clean.at(t, j)), 0.05) << t;
+  // Below kAutoRepairMinFps (here the same samples at 15 fps) auto counts as many flags and
+  // repairs nothing.
+  test::Motion slow = limb({0, 0, 1, 0, 0}, 0.6, {0.6, 0.0, 0.8});
+  for (const auto& [t, j] : more)
+    store_quat(slow.at(t, j) * exp(Vec3{0.0, 0.6, 0.0}), slow.span().at(t, j));
+  const test::Motion slow_before = slow;
+  const engine::ClipConditioning d =
+      engine::condition_rotations(engine::PopsMode::automatic, slow.span(), 1.0 / 15, kParents);
+  ASSERT_LT(15.0, engine::kAutoRepairMinFps);
+  EXPECT_GE(d.pop_count(), 3u);
+  EXPECT_FALSE(d.repaired);
+  EXPECT_EQ(slow.rotations, slow_before.rotations);
 }
 
 TEST(PopSkeleton, ACoherentOneFrameLimbSwingAt30FpsIsLeftAlone) {
