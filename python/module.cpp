@@ -843,7 +843,9 @@ PYBIND11_MODULE(mocap_clean, m) {
       py::arg("mode") = "repair", py::arg("scalar_first") = true, py::arg("inplace") = false,
       "The engine's pop stage (engine/clip/clip_conditioning.hpp, condition_rotations): makes each "
       "joint's curve sign-continuous, classifies the joints and finds (mode 'detect') or repairs "
-      "('repair'; 'auto': repair at 60 fps and more) the pops of all but the flipping joints.\n"
+      "('repair'; 'auto': repair at 60 fps and more; below, without the skeleton this function "
+      "does not take, only count, where clean repairs a clip with many pops from 20 fps) the pops "
+      "of all but the flipping joints.\n"
       "Returns (rotations, info) with info['pops'] per joint, info['garbage'] per joint (1 = "
       "garbage) and info['repaired']. inplace=True changes the caller's writable C-contiguous "
       "float32 array itself (no copy) and returns it; otherwise a copy is changed.");
