@@ -45,10 +45,9 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
 // The pop test's parameters at a frame rate: kernels/pop_repair.hpp's defaults at
 // kPopsRepairMinFps and above; below, runs of at most 2 (a window of 4 neighbours a side, 133 ms
 // at 30 fps where 5 spanned 167 ms) and a flag 8 times further from its fit than the fit's own
-// error (6 above). Calibrated with `eval --pop-stage repair` on the 9 shared clips at 30 fps
-// (max_run 1-3, local threshold 4-16, threshold 6-10, reach 2-3; README "Pops and garbage
-// joints"): clean samples flagged 0.066 % -> 0.011 %, gaussian 0.008 rad 48.05 -> 48.98 dB, the
-// spec's pops 47.27 -> 47.81 dB; at 24 fps 0.108 % -> 0.023 %, 46.58 -> 48.18, 43.26 -> 46.75.
+// error (6 above). Calibrated with `eval --pop-stage repair` on the 9 shared clips at 30 fps over
+// max_run 1-3, local threshold 4-16, threshold 6-10 and reach 2-3 (README "Pops and garbage
+// joints", "The test's parameters below 60 fps").
 PopRepairParams pop_params_at(double frame_time);
 
 // condition_rotations on the clip, but nothing at all for method none (a copy) or pops off (the

@@ -44,10 +44,9 @@ enum class PopsMode { off, detect, repair, automatic };
 // Below 60 fps a quadratic no longer follows fast limbs, and the low-rate test (skeleton and
 // detour tests, clip_conditioning.hpp) still flags some fast motion and the captures' own
 // glitches on a clean capture; repairing those costs more on light noise than pops gain, so auto
-// repairs there only where the flags are many. Measured on ../shared/data/bvh at 30 and 24 fps
-// (README "Pops and garbage joints"): clean, gaussian 0.008-0.24 rad and 0.02 rad + positions
-// flag at most 0.13 % of a clip's samples, the spec's pops (rate 1 %) at least 0.83 %. Not below
-// kAutoRepairMinFps, where clean clips flag up to 0.52 % (15 fps) and 0.75 % (10 fps).
+// repairs there only where the flags are many: a clip with pops flags several times the share a
+// clip without them does, down to kAutoRepairMinFps; below it, clean motion alone flags that many
+// (README "Pops and garbage joints", "Many pops": the shares measured at 10-30 fps).
 inline constexpr double kAutoRepairMinFlagged = 0.004;
 inline constexpr double kAutoRepairMinFps = 20;
 inline constexpr double kPopsRepairMinFps = 60;
