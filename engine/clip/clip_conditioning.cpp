@@ -278,8 +278,10 @@ void ConditioningTally::write_to(nlohmann::json& summary) const {
   summary["garbage_joints"] = {
       {"joints", garbage_joints},
       {"clips", clips_with_garbage},
-      {"handling", keep_garbage ? "kept (flipping joints filtered between their flips)"
-                                : "filtered like the others"},
+      {"handling",
+       keep_garbage
+           ? "kept (flipping joints filtered between their flips; by auto only in a noisy clip)"
+           : "filtered like the others"},
       {"by_clip", garbage}};
 }
 

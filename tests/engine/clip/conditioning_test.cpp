@@ -357,7 +357,8 @@ TEST_F(ConditioningCli, TheJsonSummaryCountsPopsPerJointAndNamesGarbageJoints) {
   const auto& listed = j["garbage_joints"]["by_clip"][0]["joints"];
   EXPECT_EQ(listed[0]["joint"], clip.skeleton->joint_names[kFlipping]);
   EXPECT_EQ(listed[0]["class"], "flipping");
-  EXPECT_EQ(j["garbage_joints"]["handling"], "kept (flipping joints filtered between their flips)");
+  EXPECT_EQ(j["garbage_joints"]["handling"],
+            "kept (flipping joints filtered between their flips; by auto only in a noisy clip)");
 
   // Without --json the closing line says it too.
   const auto human = clean("out2", "--method bof --pops auto");
