@@ -147,7 +147,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
         condition_rotations(PopsMode::detect, rotations, frame_time, parents);
     const double samples = double(rotations.frames) * double(J);
     if (std::size_t(J) != parents.size() || !(samples > 0) ||
-        !(1.0 / frame_time >= kAutoRepairMinFps) ||
+        !(frame_time > 0 && 1.0 / frame_time >= kAutoRepairMinFps) ||
         double(counted.pop_count()) < kAutoRepairMinFlagged * samples)
       return counted;
     return condition_rotations(PopsMode::repair, rotations, frame_time, parents);
