@@ -32,4 +32,20 @@ Status MotionIO::validate() const {
   return {};
 }
 
+Status validate_sample_flags(std::string_view job, RotationView rotations,
+                             std::span<const std::uint8_t> skip,
+                             std::span<const std::uint8_t> flags) {
+  const std::size_t J = std::size_t(rotations.joints), F = std::size_t(rotations.frames);
+  const std::string name(job);
+  if (rotations.frames < 0 || rotations.joints < 0 || (F * J > 0 && !rotations.data))
+    return Status::error(name + ": no rotations");
+  if (!skip.empty() && skip.size() != J)
+    return Status::error(name + ": skip must have one entry per joint (" + std::to_string(J) +
+                         "), got " + std::to_string(skip.size()));
+  if (flags.size() != F * J)
+    return Status::error(name + ": flags must have one entry per sample (" + std::to_string(F * J) +
+                         "), got " + std::to_string(flags.size()));
+  return {};
+}
+
 }  // namespace mocap

@@ -3,6 +3,7 @@
 // translations) in, the same shapes out, and the slice of the output this job writes.
 #include <cstdint>
 #include <span>
+#include <string_view>
 
 #include "core/status.hpp"
 #include "core/tensor.hpp"
@@ -33,5 +34,12 @@ struct MotionIO {
   // Shapes agree, the slice lies inside the clip, frame_time > 0, no aliasing of in and out.
   Status validate() const;
 };
+
+// The shapes the pop tests share (kernels/pop_detour.hpp, kernels/pop_skeleton.hpp): rotations
+// [F][J] (data unless empty), `skip` empty or one entry per joint, `flags` one per sample [F][J].
+// Errors start with `job`.
+Status validate_sample_flags(std::string_view job, RotationView rotations,
+                             std::span<const std::uint8_t> skip,
+                             std::span<const std::uint8_t> flags);
 
 }  // namespace mocap

@@ -8,7 +8,7 @@
 namespace mocap {
 
 double pop_detour(const Quat& before, const Quat& at, const Quat& after) {
-  return geodesic(before, at) + geodesic(at, after) - geodesic(before, after);
+  return pop_detour(geodesic(before, at), geodesic(at, after), geodesic(before, after));
 }
 
 double pop_detour_threshold(double frame_time) {
@@ -17,15 +17,7 @@ double pop_detour_threshold(double frame_time) {
 }
 
 Status PopDetourJob::validate() const {
-  const std::size_t J = std::size_t(rotations.joints), F = std::size_t(rotations.frames);
-  if (rotations.frames < 0 || rotations.joints < 0 || (F * J > 0 && !rotations.data))
-    return Status::error("pop detour test: no rotations");
-  if (!skip.empty() && skip.size() != J)
-    return Status::error("pop detour test: skip must have one entry per joint (" +
-                         std::to_string(J) + "), got " + std::to_string(skip.size()));
-  if (flags.size() != F * J)
-    return Status::error("pop detour test: flags must have one entry per sample (" +
-                         std::to_string(F * J) + "), got " + std::to_string(flags.size()));
+  if (Status s = validate_sample_flags("pop detour test", rotations, skip, flags); !s) return s;
   if (!(threshold > 0) || !std::isfinite(threshold))
     return Status::error("pop detour test: threshold must be a finite angle > 0 rad");
   const int end = joint_end < 0 ? rotations.joints : joint_end;
@@ -43,7 +35,6 @@ Status PopDetourJob::run() const {
   if (Status s = validate(); !s) return s;
   const int F = rotations.frames, J = rotations.joints;
   const int end = joint_end < 0 ? J : joint_end;
-  int set = 0;
   std::vector<double> step(std::size_t(std::max(F - 1, 0))), detour(std::size_t(std::max(F, 0)));
   for (int j = joint_begin; j < end; ++j) {
     if (!skip.empty() && skip[std::size_t(j)]) continue;
@@ -52,21 +43,16 @@ Status PopDetourJob::run() const {
           steps ? steps->at(step_offset + t, j)
                 : geodesic(load_quat(rotations.at(t, j)), load_quat(rotations.at(t + 1, j)));
     for (int t = 1; t + 1 < F; ++t)
-      detour[std::size_t(t)] =
-          step[std::size_t(t - 1)] + step[std::size_t(t)] -
-          geodesic(load_quat(rotations.at(t - 1, j)), load_quat(rotations.at(t + 1, j)));
+      detour[std::size_t(t)] = pop_detour(
+          step[std::size_t(t - 1)], step[std::size_t(t)],
+          geodesic(load_quat(rotations.at(t - 1, j)), load_quat(rotations.at(t + 1, j))));
     for (int t = 2; t + 2 < F; ++t) {
       const double e = detour[std::size_t(t)];
       if (!(e > threshold) || e < detour[std::size_t(t - 1)] || !(e > detour[std::size_t(t + 1)]))
         continue;
-      std::uint8_t& f = flags[std::size_t(t) * std::size_t(J) + std::size_t(j)];
-      if (!f) {
-        f = 1;
-        ++set;
-      }
+      flags[std::size_t(t) * std::size_t(J) + std::size_t(j)] = 1;
     }
   }
-  if (flagged) *flagged = set;
   return {};
 }
 

@@ -35,6 +35,11 @@ inline constexpr double kPopDetourFps = 30;
 // frame, which grows as the square of the frame time (a pop's does not).
 double pop_detour_threshold(double frame_time);
 
+// E(t) above from its three angles: theta(q[t-1], q[t]), theta(q[t], q[t+1]) and
+// theta(q[t-1], q[t+1]) (the job takes the first two from the joint classification's steps).
+inline double pop_detour(double step_in, double step_out, double direct) {
+  return step_in + step_out - direct;
+}
 // E(t) above for three samples of one joint at t - 1, t and t + 1.
 double pop_detour(const Quat& before, const Quat& at, const Quat& after);
 
@@ -46,7 +51,6 @@ struct PopDetourJob {
   // and E(t + 1) < E(t), for 2 <= t < F - 2; the others are left as they are (the flags of
   // find_pops come in here).
   std::span<std::uint8_t> flags;
-  int* flagged = nullptr;  // optional out: how many flags the job set that were not set before
   // The joints tested, [joint_begin, joint_end) (-1: to the last); the job writes only their
   // flags, so slices can run as parallel tasks.
   int joint_begin = 0, joint_end = -1;

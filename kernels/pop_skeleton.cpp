@@ -9,9 +9,8 @@
 namespace mocap {
 
 Status PopSkeletonJob::validate() const {
-  const std::size_t J = std::size_t(rotations.joints), F = std::size_t(rotations.frames);
-  if (rotations.frames < 0 || rotations.joints < 0 || (F * J > 0 && !rotations.data))
-    return Status::error("pop skeleton test: no rotations");
+  if (Status s = validate_sample_flags("pop skeleton test", rotations, skip, flags); !s) return s;
+  const std::size_t J = std::size_t(rotations.joints);
   if (parents.size() != J)
     return Status::error("pop skeleton test: parents must have one entry per joint (" +
                          std::to_string(J) + "), got " + std::to_string(parents.size()));
@@ -19,12 +18,6 @@ Status PopSkeletonJob::validate() const {
     if (parents[j] < -1 || parents[j] >= int(J) || parents[j] == int(j))
       return Status::error("pop skeleton test: joint " + std::to_string(j) + " has parent " +
                            std::to_string(parents[j]) + ", not a joint of the clip");
-  if (!skip.empty() && skip.size() != J)
-    return Status::error("pop skeleton test: skip must have one entry per joint (" +
-                         std::to_string(J) + "), got " + std::to_string(skip.size()));
-  if (flags.size() != F * J)
-    return Status::error("pop skeleton test: flags must have one entry per sample (" +
-                         std::to_string(F * J) + "), got " + std::to_string(flags.size()));
   if (!(coherence > 0)) return Status::error("pop skeleton test: coherence must be > 0");
   if (reach < 0) return Status::error("pop skeleton test: reach must be >= 0 frames");
   if (pop_group < 0) return Status::error("pop skeleton test: pop_group must be >= 0 joints");
@@ -34,7 +27,6 @@ Status PopSkeletonJob::validate() const {
 Status PopSkeletonJob::run() const {
   if (Status s = validate(); !s) return s;
   const int F = rotations.frames, J = rotations.joints;
-  if (unflagged) *unflagged = 0;
   auto flagged = [&](int t, int j) { return flags[std::size_t(t) * std::size_t(J) + j] != 0; };
   auto usable = [&](int k) { return k >= 0 && (skip.empty() || !skip[std::size_t(k)]); };
   std::vector<std::vector<int>> neighbours(static_cast<std::size_t>(J));
@@ -120,7 +112,6 @@ Status PopSkeletonJob::run() const {
       if (motion) clear.push_back(std::size_t(t) * std::size_t(J) + std::size_t(j));
     }
   for (std::size_t i : clear) flags[i] = 0;
-  if (unflagged) *unflagged = int(clear.size());
   return {};
 }
 

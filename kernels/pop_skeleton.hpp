@@ -42,7 +42,6 @@ struct PopSkeletonJob {
   std::span<const int> parents;        // one per joint, -1 for a root
   std::span<const std::uint8_t> skip;  // optional, one per joint: garbage, not a neighbour
   std::span<std::uint8_t> flags;       // [F][J]: in, find_pops' flags; out, the pops left
-  int* unflagged = nullptr;            // optional out: how many flags the skeleton removed
 
   Status validate() const;
   Status run() const;
