@@ -34,30 +34,6 @@ ClipFacts ClipConditioning::facts() const {
 
 namespace {
 
-// `out` ([F][J][4], a copy of `in`) with each joint's flagged runs repaired (repair_pops), but
-// for the `skip` joints (one entry per joint), left as they are in `out`.
-void repair_flagged(RotationView in, std::span<const std::uint8_t> flags,
-                    std::span<const std::uint8_t> skip, std::span<float> out) {
-  const int F = in.frames, J = in.joints;
-  std::vector<Quat> curve(static_cast<std::size_t>(F)), fixed(static_cast<std::size_t>(F));
-  std::vector<std::uint8_t> joint_flags(static_cast<std::size_t>(F));
-  for (int j = 0; j < J; ++j) {
-    if (skip[std::size_t(j)]) continue;
-    bool any = false;
-    for (int t = 0; t < F; ++t) {
-      joint_flags[std::size_t(t)] = flags[std::size_t(t) * std::size_t(J) + std::size_t(j)];
-      any = any || joint_flags[std::size_t(t)];
-    }
-    if (!any) continue;
-    for (int t = 0; t < F; ++t) curve[std::size_t(t)] = load_quat(in.at(t, j));
-    repair_pops(curve, joint_flags, fixed);
-    for (int t = 0; t < F; ++t)
-      if (joint_flags[std::size_t(t)])
-        store_quat(fixed[std::size_t(t)],
-                   out.data() + (std::size_t(t) * std::size_t(J) + std::size_t(j)) * 4);
-  }
-}
-
 // A job's joints as parallel tasks (a clip's few long joints would otherwise keep one thread
 // busy while the others wait for the next clip); `slice(job, begin, end)` is the job on joints
 // [begin, end), which writes only those joints' outputs, so the results are the same for any
@@ -91,15 +67,60 @@ void run_joints_in_parallel(const PopDetourJob& job) {
   });
 }
 
-// Flipping joints' pops, found and repaired piece by piece between the joint's flips
-// (clip/flip_pieces.hpp): to the test over the whole curve every flip is a pop, inside a piece
-// the joint moves as captured joints do. Writes the repaired samples and their flags.
-void repair_between_flips(RotationView rotations, std::span<const std::uint8_t> flipping,
-                          const PopRepairParams& params, std::span<std::uint8_t> flagged,
-                          std::span<int> found, std::span<float> repaired) {
+// The pop test on one segment's captured joints (all but the flipping ones): find_pops on each
+// joint's curve; below kPopsRepairMinFps with the skeleton known, the detour test adds flags and
+// the skeleton test takes away those of coherent motion. Writes `flags` ([F][J] of the segment).
+struct SegmentPopTest {
+  RotationView rotations;  // the segment
+  double frame_time = 0;
+  std::span<const int> parents;
+  std::span<const std::uint8_t> flipping, garbage;  // one per joint
+  bool skeleton_test = false;
+  const StepAngles* steps = nullptr;  // the classification's, of the whole clip
+  int step_offset = 0;                // the segment's first frame
+  std::span<std::uint8_t> flags;
+
+  void run(std::vector<float>& scratch) const {
+    const int F = rotations.frames, J = rotations.joints;
+    scratch.resize(std::size_t(F) * std::size_t(J) * 4);
+    PopRepairJob job;  // detection only: its output, a copy, is not read
+    job.io.frame_time = frame_time;
+    job.io.rotations = rotations;
+    job.io.filtered_rotations = {scratch.data(), F, J};
+    job.params = pop_params_at(frame_time);
+    job.skip_joints = flipping;
+    job.flagged_samples = flags;
+    job.repair = false;
+    run_joints_in_parallel(job);
+    if (!skeleton_test) return;
+    // A pop that fast motion hides from the fit still makes a detour (kernels/pop_detour.hpp).
+    PopDetourJob detour;
+    detour.rotations = rotations;
+    detour.skip = flipping;
+    detour.flags = flags;
+    detour.threshold = pop_detour_threshold(frame_time);
+    detour.steps = steps;
+    detour.step_offset = step_offset;
+    run_joints_in_parallel(detour);
+    PopSkeletonJob skeleton;
+    skeleton.rotations = rotations;
+    skeleton.parents = parents;
+    skeleton.params = job.params;
+    skeleton.skip = garbage;
+    skeleton.flags = flags;
+    if (const Status s = skeleton.run(); !s.ok())
+      throw std::runtime_error("pop repair: " + s.message());
+  }
+};
+
+// Flipping joints' pops, found between the joint's flips (clip/flip_pieces.hpp): to the test over
+// the whole curve every flip is a pop, inside a piece the joint moves as captured joints do.
+// Sets their flags in `flags` ([F][J] of the segment `rotations`).
+void find_pops_between_flips(RotationView rotations, std::span<const std::uint8_t> flipping,
+                             const PopRepairParams& params, std::span<std::uint8_t> flags) {
   const int J = rotations.joints;
-  std::vector<Quat> curve, out;
-  std::vector<std::uint8_t> flags;
+  std::vector<Quat> curve;
+  std::vector<std::uint8_t> piece_flags;
   for (int j = 0; j < J; ++j) {
     if (!flipping[std::size_t(j)]) continue;
     for (const Segment& piece : flip_pieces(rotations, j)) {
@@ -108,20 +129,47 @@ void repair_between_flips(RotationView rotations, std::span<const std::uint8_t> 
       curve.resize(n);
       for (std::size_t t = 0; t < n; ++t)
         curve[t] = load_quat(rotations.at(piece.begin + int(t), j));
-      flags.assign(n, 0);
-      const int count = find_pops(curve, params, flags);
-      if (count == 0) continue;
-      out.resize(n);
-      repair_pops(curve, flags, out);
-      for (std::size_t t = 0; t < n; ++t) {
-        if (!flags[t]) continue;
-        const std::size_t sample = (std::size_t(piece.begin) + t) * std::size_t(J) + std::size_t(j);
-        flagged[sample] = 1;
-        store_quat(out[t], &repaired[sample * 4]);
-      }
-      found[std::size_t(j)] += count;
+      piece_flags.assign(n, 0);
+      if (find_pops(curve, params, piece_flags) == 0) continue;
+      for (std::size_t t = 0; t < n; ++t)
+        if (piece_flags[t])
+          flags[(std::size_t(piece.begin) + t) * std::size_t(J) + std::size_t(j)] = 1;
     }
   }
+}
+
+// Repairs the flagged runs of one segment in place (repair_pops): a captured joint's over its
+// whole curve, a flipping joint's piece by piece between its flips, as they were found. Joints
+// are parallel tasks; each reads and writes only its own joint's samples, and reads a curve
+// before it writes any of it.
+void repair_segment(RotationSpan rotations, std::span<const std::uint8_t> flags,
+                    std::span<const std::uint8_t> flipping) {
+  const int F = rotations.frames, J = rotations.joints;
+  const RotationView view{rotations.data, F, J};
+  tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
+    std::vector<Quat> curve, fixed;
+    std::vector<std::uint8_t> piece_flags;
+    for (int j = range.begin(); j < range.end(); ++j) {
+      const std::vector<Segment> pieces =
+          flipping[std::size_t(j)] ? flip_pieces(view, j) : std::vector<Segment>{{0, F}};
+      for (const Segment& piece : pieces) {
+        const std::size_t n = std::size_t(piece.frames());
+        piece_flags.resize(n);
+        bool any = false;
+        for (std::size_t t = 0; t < n; ++t) {
+          piece_flags[t] = flags[(std::size_t(piece.begin) + t) * std::size_t(J) + std::size_t(j)];
+          any = any || piece_flags[t];
+        }
+        if (!any) continue;
+        curve.resize(n);
+        fixed.resize(n);
+        for (std::size_t t = 0; t < n; ++t) curve[t] = load_quat(view.at(piece.begin + int(t), j));
+        repair_pops(curve, piece_flags, fixed);
+        for (std::size_t t = 0; t < n; ++t)
+          if (piece_flags[t]) store_quat(fixed[t], rotations.at(piece.begin + int(t), j));
+      }
+    }
+  });
 }
 
 }  // namespace
@@ -137,26 +185,13 @@ PopRepairParams pop_params_at(double frame_time) {
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
                                      std::span<const int> parents) {
   ClipConditioning c;
-  const int J = rotations.joints;
+  const int F = rotations.frames, J = rotations.joints;
   const bool high_rate = frame_time > 0 && 1.0 / frame_time >= kPopsRepairMinFps;
-  if (mode == PopsMode::automatic && !high_rate) {
-    // Below kPopsRepairMinFps auto counts first, and repairs only a clip whose flags are many
-    // (kAutoRepairMinFlagged, filter_settings.hpp) at kAutoRepairMinFps or more; the low-rate
-    // test needs the skeleton.
-    ClipConditioning counted =
-        condition_rotations(PopsMode::detect, rotations, frame_time, parents);
-    const double samples = double(rotations.frames) * double(J);
-    if (std::size_t(J) != parents.size() || !(samples > 0) ||
-        !(frame_time > 0 && 1.0 / frame_time >= kAutoRepairMinFps) ||
-        double(counted.pop_count()) < kAutoRepairMinFlagged * samples)
-      return counted;
-    return condition_rotations(PopsMode::repair, rotations, frame_time, parents);
-  }
-  const RotationView view{rotations.data, rotations.frames, J};
+  const RotationView view{rotations.data, F, J};
   // Joint by joint in parallel tasks, like the pop stage below (each writes its own entry).
   // The step angles the classification measures are kept for the impossible-step test below.
   c.joints.resize(std::size_t(J));
-  const std::size_t steps = std::size_t(std::max(rotations.frames - 1, 0));
+  const std::size_t steps = std::size_t(std::max(F - 1, 0));
   std::vector<double> step_angles(steps * std::size_t(J));
   tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
     for (int j = range.begin(); j < range.end(); ++j)
@@ -169,10 +204,10 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   c.pops.assign(std::size_t(J), 0);
   if (mode == PopsMode::off || J == 0) return c;
 
-  // Constant and rounding-only joints are repaired too (a pop on a still joint is the easiest to
+  // Constant and rounding-only joints are tested too (a pop on a still joint is the easiest to
   // tell); a flipping joint is all pops to the test over its whole curve: where the stage
-  // repairs, it is tested and repaired between its flips instead (it has no skeleton neighbours
-  // to ask: it is garbage).
+  // repairs, it is tested between its flips instead (it has no skeleton neighbours to ask: it is
+  // garbage).
   std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
   for (int j = 0; j < J; ++j)
     flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
@@ -180,60 +215,58 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   // its neighbours rule out most of them (kernels/pop_skeleton.hpp), and the detour test finds
   // the pops fast motion hides from the fit (kernels/pop_detour.hpp).
   const bool skeleton_test = !high_rate && std::size_t(J) == parents.size();
-  c.repaired = mode == PopsMode::repair || (mode == PopsMode::automatic && high_rate);
-  std::vector<int> found(std::size_t(J), 0);
-  std::vector<float> repaired;
-  std::vector<std::uint8_t> flagged;
-  const StepAngles angles{step_angles, rotations.frames, J};
-  c.segments = split_segments(
-      rotations.frames, find_impossible_steps(angles, frame_time, MotionSplitParams{}, flipping));
+  const StepAngles angles{step_angles, F, J};
+  c.segments =
+      split_segments(F, find_impossible_steps(angles, frame_time, MotionSplitParams{}, flipping));
+  // The captured joints' flags of every segment ([F][J] of the clip), first: below
+  // kPopsRepairMinFps auto repairs only a clip whose flags are many.
+  std::vector<std::uint8_t> flags(std::size_t(F) * std::size_t(J), 0);
+  const auto segment_flags = [&](const Segment& seg) {
+    return std::span<std::uint8_t>(flags).subspan(std::size_t(seg.begin) * std::size_t(J),
+                                                  std::size_t(seg.frames()) * std::size_t(J));
+  };
+  const auto segment_rotations = [&](const Segment& seg) {
+    return RotationSpan{rotations.data + std::size_t(seg.begin) * std::size_t(J) * 4, seg.frames(),
+                        J};
+  };
+  std::vector<float> scratch;
   for (const Segment& seg : c.segments) {
-    flagged.assign(std::size_t(seg.frames()) * std::size_t(J), 0);
-    const std::size_t offset = std::size_t(seg.begin) * std::size_t(J) * 4;
-    repaired.resize(std::size_t(seg.frames()) * std::size_t(J) * 4);
-    PopRepairJob job;
-    job.io.frame_time = frame_time;
-    job.io.rotations = {rotations.data + offset, seg.frames(), J};
-    job.io.filtered_rotations = {repaired.data(), seg.frames(), J};
-    job.params = pop_params_at(frame_time);
-    job.skip_joints = flipping;
-    job.flagged_per_joint = found;
-    job.flagged_samples = flagged;
-    job.repair = c.repaired && !skeleton_test;
-    run_joints_in_parallel(job);
-    if (c.repaired)
-      repair_between_flips(job.io.rotations, flipping, job.params, flagged, found, repaired);
-    if (skeleton_test) {
-      // A pop that fast motion hides from the fit still makes a detour (kernels/pop_detour.hpp).
-      // With the classification's step angles.
-      PopDetourJob detour;
-      detour.rotations = {rotations.data + offset, seg.frames(), J};
-      detour.skip = flipping;
-      detour.flags = flagged;
-      detour.threshold = pop_detour_threshold(frame_time);
-      detour.steps = &angles;
-      detour.step_offset = seg.begin;
-      run_joints_in_parallel(detour);
-      PopSkeletonJob skeleton;
-      skeleton.rotations = {rotations.data + offset, seg.frames(), J};
-      skeleton.parents = parents;
-      skeleton.params = job.params;
-      skeleton.skip = c.garbage;
-      skeleton.flags = flagged;
-      if (const Status s = skeleton.run(); !s.ok())
-        throw std::runtime_error("pop repair: " + s.message());
-      std::fill(found.begin(), found.end(), 0);
-      for (std::size_t i = 0; i < flagged.size(); ++i) found[i % std::size_t(J)] += flagged[i];
-      if (c.repaired) repair_flagged(skeleton.rotations, flagged, flipping, repaired);
-    }
-    for (int j = 0; j < J; ++j) c.pops[std::size_t(j)] += found[std::size_t(j)];
-    for (std::size_t i = 0; i < flagged.size(); ++i)
-      if (flagged[i]) {
-        c.pop_samples.push_back(std::int32_t(seg.begin + int(i / std::size_t(J))));
-        c.pop_samples.push_back(std::int32_t(i % std::size_t(J)));
-      }
-    if (c.repaired) std::copy(repaired.begin(), repaired.end(), rotations.data + offset);
+    const RotationSpan part = segment_rotations(seg);
+    SegmentPopTest test;
+    test.rotations = {part.data, part.frames, J};
+    test.frame_time = frame_time;
+    test.parents = parents;
+    test.flipping = flipping;
+    test.garbage = c.garbage;
+    test.skeleton_test = skeleton_test;
+    test.steps = &angles;
+    test.step_offset = seg.begin;
+    test.flags = segment_flags(seg);
+    test.run(scratch);
   }
+  // auto below kPopsRepairMinFps: a clip with pops (kAutoRepairMinFlagged, filter_settings.hpp)
+  // from kAutoRepairMinFps up; the low-rate test needs the skeleton.
+  const double samples = double(F) * double(J);
+  const auto many_pops = [&] {
+    const double found = double(std::count(flags.begin(), flags.end(), std::uint8_t{1}));
+    return skeleton_test && samples > 0 && frame_time > 0 &&
+           1.0 / frame_time >= kAutoRepairMinFps && found >= kAutoRepairMinFlagged * samples;
+  };
+  c.repaired =
+      mode == PopsMode::repair || (mode == PopsMode::automatic && (high_rate || many_pops()));
+  if (c.repaired)
+    for (const Segment& seg : c.segments) {
+      const RotationSpan part = segment_rotations(seg);
+      find_pops_between_flips({part.data, part.frames, J}, flipping, pop_params_at(frame_time),
+                              segment_flags(seg));
+      repair_segment(part, segment_flags(seg), flipping);
+    }
+  for (std::size_t i = 0; i < flags.size(); ++i)
+    if (flags[i]) {
+      ++c.pops[i % std::size_t(J)];
+      c.pop_samples.push_back(std::int32_t(i / std::size_t(J)));
+      c.pop_samples.push_back(std::int32_t(i % std::size_t(J)));
+    }
   return c;
 }
 

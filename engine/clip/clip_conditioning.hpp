@@ -30,13 +30,14 @@ struct ClipConditioning {
   ClipFacts facts() const;
 };
 
-// Classifies the joints of `rotations` and finds (detect) or repairs (repair, in place) its pops
-// on every joint but the flipping ones. The pop test runs between impossible steps (a jump no joint
-// can make, kernels/motion_split.hpp, measured on the joints that are not garbage): the
-// synthetic T-pose frame 0 of CMU conversions is a frame of its own, not a pop.
-// With `parents` (one per joint, -1 for a root; empty: unknown), below kPopsRepairMinFps the
-// detour test adds flags (kernels/pop_detour.hpp) and each flag must pass the skeleton test
-// (kernels/pop_skeleton.hpp); `auto` there repairs a clip whose flags number at least
+// Classifies the joints of `rotations` and finds (detect) or repairs (repair, in place) its pops:
+// one test finds the flags, then the stage decides whether to repair them. A flipping joint is
+// tested (and repaired) between its flips, and only where the stage repairs. The pop test runs
+// between impossible steps (a jump no joint can make, kernels/motion_split.hpp, measured on the
+// joints that are not garbage): the synthetic T-pose frame 0 of CMU conversions is a frame of its
+// own, not a pop. With `parents` (one per joint, -1 for a root; empty: unknown), below
+// kPopsRepairMinFps the detour test adds flags (kernels/pop_detour.hpp) and each flag must pass the
+// skeleton test (kernels/pop_skeleton.hpp); `auto` there repairs a clip whose flags number at least
 // kAutoRepairMinFlagged of its samples, from kAutoRepairMinFps up, and only counts the others
 // (and every clip without `parents`).
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
