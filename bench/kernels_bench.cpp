@@ -12,8 +12,10 @@
 #include "kernels/foot_lock.hpp"
 #include "kernels/forward_kinematics.hpp"
 #include "kernels/linear_filter.hpp"
+#include "kernels/motion_split.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
+#include "kernels/pop_detour.hpp"
 #include "kernels/pop_repair.hpp"
 #include "kernels/simd/band_geodesics.hpp"
 #include "kernels/simd/quat_batch.hpp"
@@ -116,6 +118,35 @@ BENCHMARK(BM_PopRepair)
     ->Args({0, 31, 1000, 0})
     ->Args({1, 31, 1000, 0})
     ->Args({1, 31, 1000, 1})
+    ->Unit(benchmark::kMillisecond);
+
+// The detour test of a pop (the low-rate pop stage's second test, kernels/pop_detour.hpp) on the
+// same motion: measuring its own step angles (steps 0), or reading them from the joint
+// classification's (steps 1), as the conditioning runs it.
+void BM_PopDetour(benchmark::State& state) {
+  Fixture f(int(state.range(1)), int(state.range(0)));
+  std::vector<std::uint8_t> flags(std::size_t(f.frames) * std::size_t(f.joints));
+  std::vector<double> angles(std::size_t(f.frames - 1) * std::size_t(f.joints));
+  for (int j = 0; j < f.joints; ++j)
+    for (int t = 0; t + 1 < f.frames; ++t)
+      angles[std::size_t(j) * std::size_t(f.frames - 1) + std::size_t(t)] =
+          geodesic(load_quat(f.io.rotations.at(t, j)), load_quat(f.io.rotations.at(t + 1, j)));
+  const StepAngles steps{angles, f.frames, f.joints};
+  PopDetourJob job;
+  job.rotations = f.io.rotations;
+  job.flags = flags;
+  job.threshold = pop_detour_threshold(1.0 / 30);
+  if (state.range(2) != 0) job.steps = &steps;
+  for (auto _ : state) {
+    job.run();
+    benchmark::DoNotOptimize(flags.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_PopDetour)
+    ->ArgNames({"J", "F", "steps"})
+    ->Args({31, 1000, 0})
+    ->Args({31, 1000, 1})
     ->Unit(benchmark::kMillisecond);
 
 // Forward kinematics of the bof fixture's motion on a random 31-joint tree with a translated
