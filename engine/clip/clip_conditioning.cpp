@@ -67,20 +67,20 @@ void run_joints_in_parallel(const PopDetourJob& job) {
   });
 }
 
-// The pop test on one segment's captured joints (all but the flipping ones): find_pops on each
-// joint's curve; below kPopsRepairMinFps with the skeleton known, the detour test adds flags and
-// the skeleton test takes away those of coherent motion. Writes `flags` ([F][J] of the segment).
+// The pop test on one segment's captured joints (all but the flipping ones), in three steps:
+// find_pops on each joint's curve; the detour test, which adds flags (kernels/pop_detour.hpp);
+// the skeleton test, which takes away those of coherent motion (kernels/pop_skeleton.hpp).
+// Each writes `flags` ([F][J] of the segment).
 struct SegmentPopTest {
   RotationView rotations;  // the segment
   double frame_time = 0;
   std::span<const int> parents;
   std::span<const std::uint8_t> flipping, garbage;  // one per joint
-  bool skeleton_test = false;
-  const StepAngles* steps = nullptr;  // the classification's, of the whole clip
-  int step_offset = 0;                // the segment's first frame
+  const StepAngles* steps = nullptr;                // the classification's, of the whole clip
+  int step_offset = 0;                              // the segment's first frame
   std::span<std::uint8_t> flags;
 
-  void run(std::vector<float>& scratch) const {
+  void find(std::vector<float>& scratch) const {
     const int F = rotations.frames, J = rotations.joints;
     scratch.resize(std::size_t(F) * std::size_t(J) * 4);
     PopRepairJob job;  // detection only: its output, a copy, is not read
@@ -92,24 +92,28 @@ struct SegmentPopTest {
     job.flagged_samples = flags;
     job.repair = false;
     run_joints_in_parallel(job);
-    if (!skeleton_test) return;
-    // A pop that fast motion hides from the fit still makes a detour (kernels/pop_detour.hpp).
-    PopDetourJob detour;
-    detour.rotations = rotations;
-    detour.skip = flipping;
-    detour.flags = flags;
-    detour.threshold = pop_detour_threshold(frame_time);
-    detour.steps = steps;
-    detour.step_offset = step_offset;
-    run_joints_in_parallel(detour);
-    PopSkeletonJob skeleton;
-    skeleton.rotations = rotations;
-    skeleton.parents = parents;
-    skeleton.params = job.params;
-    skeleton.skip = garbage;
-    skeleton.flags = flags;
-    if (const Status s = skeleton.run(); !s.ok())
-      throw std::runtime_error("pop repair: " + s.message());
+  }
+  // A pop that fast motion hides from the fit still makes a detour; with the classification's
+  // step angles.
+  void detour() const {
+    PopDetourJob job;
+    job.rotations = rotations;
+    job.skip = flipping;
+    job.flags = flags;
+    job.threshold = pop_detour_threshold(frame_time);
+    job.steps = steps;
+    job.step_offset = step_offset;
+    run_joints_in_parallel(job);
+  }
+  void skeleton(int pop_group = kPopGroup) const {
+    PopSkeletonJob job;
+    job.pop_group = pop_group;
+    job.rotations = rotations;
+    job.parents = parents;
+    job.params = pop_params_at(frame_time);
+    job.skip = garbage;
+    job.flags = flags;
+    if (const Status s = job.run(); !s.ok()) throw std::runtime_error("pop repair: " + s.message());
   }
 };
 
@@ -229,8 +233,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     return RotationSpan{rotations.data + std::size_t(seg.begin) * std::size_t(J) * 4, seg.frames(),
                         J};
   };
-  std::vector<float> scratch;
-  for (const Segment& seg : c.segments) {
+  const auto segment_test = [&](const Segment& seg, std::vector<std::uint8_t>& clip_flags) {
     const RotationSpan part = segment_rotations(seg);
     SegmentPopTest test;
     test.rotations = {part.data, part.frames, J};
@@ -238,22 +241,50 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     test.parents = parents;
     test.flipping = flipping;
     test.garbage = c.garbage;
-    test.skeleton_test = skeleton_test;
     test.steps = &angles;
     test.step_offset = seg.begin;
-    test.flags = segment_flags(seg);
-    test.run(scratch);
-  }
-  // auto below kPopsRepairMinFps: a clip with pops (kAutoRepairMinFlagged, filter_settings.hpp)
-  // from kAutoRepairMinFps up; the low-rate test needs the skeleton.
-  const double samples = double(F) * double(J);
-  const auto many_pops = [&] {
-    const double found = double(std::count(flags.begin(), flags.end(), std::uint8_t{1}));
-    return skeleton_test && samples > 0 && frame_time > 0 &&
-           1.0 / frame_time >= kAutoRepairMinFps && found >= kAutoRepairMinFlagged * samples;
+    test.flags = std::span<std::uint8_t>(clip_flags)
+                     .subspan(std::size_t(seg.begin) * std::size_t(J),
+                              std::size_t(seg.frames()) * std::size_t(J));
+    return test;
   };
+  std::vector<float> scratch;
+  for (const Segment& seg : c.segments) {
+    const SegmentPopTest test = segment_test(seg, flags);
+    test.find(scratch);
+    if (skeleton_test) {
+      test.detour();
+      test.skeleton();
+    }
+  }
+  // A clip with pops (kManyPopsFlagged, filter_settings.hpp). Below kPopsRepairMinFps auto
+  // repairs it from kAutoRepairMinFps up (the low-rate test needs the skeleton). At
+  // kPopsRepairMinFps and above, the detour test adds the pops that a fast joint's fit error hid,
+  // each of its flags kept only where the skeleton test, with every flagged neighbour counting
+  // (pop_group 0), finds no neighbour moving with it: a capture's own jitter moves a foot and its
+  // toe together. A clip without pops keeps the per-joint test alone (README "Pops and garbage
+  // joints", "Many pops").
+  const double samples = double(F) * double(J);
+  const bool many_pops =
+      samples > 0 &&
+      double(std::count(flags.begin(), flags.end(), std::uint8_t{1})) >= kManyPopsFlagged * samples;
+  if (high_rate && many_pops && std::size_t(J) == parents.size()) {
+    // Only the new flags ask the skeleton (with pop_group 0 a sample's verdict reads no other
+    // flag, so the per-joint test's flags need not be there).
+    std::vector<std::uint8_t> detours(flags.size(), 0);
+    for (const Segment& seg : c.segments) {
+      const SegmentPopTest test = segment_test(seg, detours);
+      test.detour();
+      for (std::size_t i = 0; i < test.flags.size(); ++i)
+        if (flags[std::size_t(seg.begin) * std::size_t(J) + i]) test.flags[i] = 0;
+      test.skeleton(0);
+    }
+    for (std::size_t i = 0; i < flags.size(); ++i) flags[i] |= detours[i];
+  }
   c.repaired =
-      mode == PopsMode::repair || (mode == PopsMode::automatic && (high_rate || many_pops()));
+      mode == PopsMode::repair ||
+      (mode == PopsMode::automatic &&
+       (high_rate || (skeleton_test && many_pops && 1.0 / frame_time >= kAutoRepairMinFps)));
   if (c.repaired)
     for (const Segment& seg : c.segments) {
       const RotationSpan part = segment_rotations(seg);

@@ -38,8 +38,10 @@ struct ClipConditioning {
 // own, not a pop. With `parents` (one per joint, -1 for a root; empty: unknown), below
 // kPopsRepairMinFps the detour test adds flags (kernels/pop_detour.hpp) and each flag must pass the
 // skeleton test (kernels/pop_skeleton.hpp); `auto` there repairs a clip whose flags number at least
-// kAutoRepairMinFlagged of its samples, from kAutoRepairMinFps up, and only counts the others
-// (and every clip without `parents`).
+// kManyPopsFlagged of its samples, from kAutoRepairMinFps up, and only counts the others
+// (and every clip without `parents`). At kPopsRepairMinFps and above, a clip with that many flags
+// (and `parents`) gets the detour test's flags too, each kept only where no skeleton neighbour
+// moves with it.
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
                                      std::span<const int> parents = {});
 

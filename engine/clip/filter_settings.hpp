@@ -38,7 +38,7 @@ enum class Method : std::uint8_t {
 
 // Pop repair before the filter (engine/clip/clip_conditioning.hpp): off = the spec's filter
 // exactly; auto = repair at kPopsRepairMinFps and above; from kAutoRepairMinFps to there, repair a
-// clip whose pop test flags at least kAutoRepairMinFlagged of its samples (a clip with pops), and
+// clip whose pop test flags at least kManyPopsFlagged of its samples (a clip with pops), and
 // only count elsewhere.
 enum class PopsMode { off, detect, repair, automatic };
 // Below 60 fps a quadratic no longer follows fast limbs, and the low-rate test (skeleton and
@@ -46,8 +46,9 @@ enum class PopsMode { off, detect, repair, automatic };
 // glitches on a clean capture; repairing those costs more on light noise than pops gain, so auto
 // repairs there only where the flags are many: a clip with pops flags several times the share a
 // clip without them does, down to kAutoRepairMinFps; below it, clean motion alone flags that many
-// (README "Pops and garbage joints", "Many pops": the shares measured at 10-30 fps).
-inline constexpr double kAutoRepairMinFlagged = 0.004;
+// (README "Pops and garbage joints", "Many pops": the shares measured at 10-30 fps). At 60 fps and
+// above the same share adds the detour test to the pop test (clip_conditioning.hpp).
+inline constexpr double kManyPopsFlagged = 0.004;
 inline constexpr double kAutoRepairMinFps = 20;
 inline constexpr double kPopsRepairMinFps = 60;
 std::optional<PopsMode> parse_pops_mode(std::string_view name);

@@ -196,7 +196,7 @@ TEST(EvalCommand, PopStageRowsRunAfterThePopRepairAndBeatThePlainFiltersOnPops) 
 }
 
 // Below 60 fps the default stage (clean's --pops auto) repairs a clip whose pops are many (the
-// spec's rate of 1 %: at least kAutoRepairMinFlagged of its samples flagged) and only counts them
+// spec's rate of 1 %: at least kManyPopsFlagged of its samples flagged) and only counts them
 // in a clip with few (rate 0.1 %), which ends at its noisy input; --pop-stage repair repairs both.
 TEST(EvalCommand, BelowSixtyFpsAutoRepairsClipsWithManyPopsAndPopStageRepairEvery) {
   test::TempDir in("eval-stage-in");
@@ -236,9 +236,9 @@ TEST(EvalCommand, BelowSixtyFpsAutoRepairsClipsWithManyPopsAndPopStageRepairEver
       }
       EXPECT_GT(found, 0u) << "counted either way, condition " << c;
       if (c == 0) {
-        EXPECT_GE(double(found), engine::kAutoRepairMinFlagged * double(samples));
+        EXPECT_GE(double(found), engine::kManyPopsFlagged * double(samples));
       } else {
-        EXPECT_LT(double(found), engine::kAutoRepairMinFlagged * double(samples));
+        EXPECT_LT(double(found), engine::kManyPopsFlagged * double(samples));
         if (!repair) {
           EXPECT_EQ(left, popped) << "counting leaves every pop";
         }
