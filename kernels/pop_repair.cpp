@@ -367,6 +367,35 @@ void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flag
   }
 }
 
+Status PopFindJob::validate() const {
+  if (Status s = validate_sample_flags("PopFindJob", rotations, skip, flags); !s) return s;
+  if (joint_begin < 0 || joint_stop() > rotations.joints || joint_begin > joint_stop())
+    return Status::error("PopFindJob: joint slice [" + std::to_string(joint_begin) + ", " +
+                         std::to_string(joint_stop()) + ") is outside the clip's " +
+                         std::to_string(rotations.joints) + " joints");
+  if (implementation != Implementation::fast && implementation != Implementation::reference)
+    return Status::error("PopFindJob: unknown implementation");
+  return params.validate();
+}
+
+Status PopFindJob::run() const {
+  if (Status s = validate(); !s) return s;
+  const std::size_t F = std::size_t(rotations.frames), J = std::size_t(rotations.joints);
+  std::vector<Quat> curve(F);
+  std::vector<std::uint8_t> found(F);
+  const std::optional<PopScreen> weights =
+      screen ? std::optional<PopScreen>(params) : std::optional<PopScreen>();
+  for (int j = joint_begin; j < joint_stop(); ++j) {
+    std::fill(found.begin(), found.end(), std::uint8_t{0});
+    if (skip.empty() || skip[std::size_t(j)] == 0) {
+      for (std::size_t t = 0; t < F; ++t) curve[t] = load_quat(rotations.at(int(t), j));
+      find_pops_with(curve, params, found, implementation, weights ? &*weights : nullptr);
+    }
+    for (std::size_t t = 0; t < F; ++t) flags[t * J + std::size_t(j)] = found[t];
+  }
+  return {};
+}
+
 Status PopRepairJob::validate() const {
   if (Status s = io.validate(); !s) return s;
   const std::size_t joints = std::size_t(io.rotations.joints);
@@ -403,8 +432,8 @@ Status PopRepairJob::run() const {
       for (int t = 0; t < frames; ++t) curve[std::size_t(t)] = load_quat(io.rotations.at(t, j));
       find_pops_with(curve, params, flags, implementation, weights ? &*weights : nullptr);
     }
-    const bool changes = repair && std::find(flags.begin() + begin, flags.begin() + end,
-                                             std::uint8_t{1}) != flags.begin() + end;
+    const bool changes = std::find(flags.begin() + begin, flags.begin() + end, std::uint8_t{1}) !=
+                         flags.begin() + end;
     if (changes) repair_pops(curve, flags, repaired);
     int count = 0;
     for (int t = begin; t < end; ++t) {

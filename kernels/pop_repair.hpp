@@ -88,6 +88,25 @@ int find_pops(std::span<const Quat> curve, const PopRepairParams& params,
 void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flags,
                  std::span<Quat> out);
 
+// Detection alone: find_pops on each joint's whole curve, no output but the flags (the pipeline
+// decides whether to repair once it has seen every flag of a clip, engine/clip).
+struct PopFindJob {
+  PopRepairParams params;
+  RotationView rotations;              // [F][J]
+  std::span<const std::uint8_t> skip;  // optional, one per joint: nonzero is never flagged
+  // [F][J]: 1 where a sample is flagged, 0 elsewhere, written for the joints tested.
+  std::span<std::uint8_t> flags;
+  // The joints tested, [joint_begin, joint_end) (-1: to the last); slices can run as parallel
+  // tasks, and each flag is the same whatever slice wrote it.
+  int joint_begin = 0, joint_end = -1;
+  Implementation implementation = Implementation::fast;  // of the residuals, see find_pops
+  bool screen = true;                                    // find_pops' screen (the same flags)
+
+  int joint_stop() const { return joint_end < 0 ? rotations.joints : joint_end; }
+  Status validate() const;
+  Status run() const;
+};
+
 struct PopRepairJob {
   PopRepairParams params;
   // Rotations in and out (io.frame_time is not used). Translations, when given, are copied
@@ -101,8 +120,6 @@ struct PopRepairJob {
   std::span<int> flagged_per_joint;
   // Optional, [F][J] row-major: 1 where a sample is flagged, 0 elsewhere; written in the slice.
   std::span<std::uint8_t> flagged_samples;
-  // false: detect only; the output is a bit-exact copy of the input, the counts are the same.
-  bool repair = true;
   Implementation implementation = Implementation::fast;  // of the residuals, see find_pops
   bool screen = true;                                    // find_pops' screen (the same flags)
 

@@ -51,20 +51,21 @@ void run_joints_in_parallel(const Job& job, int joints, Slice slice) {
   if (!error.empty()) throw std::runtime_error("pop repair: " + error);
 }
 
-void run_joints_in_parallel(const PopRepairJob& job) {
-  run_joints_in_parallel(job, job.io.rotations.joints, [](PopRepairJob slice, int begin, int end) {
-    slice.io.joint_begin = begin;
-    slice.io.joint_end = end;
-    return slice;
-  });
-}
-
-void run_joints_in_parallel(const PopDetourJob& job) {
-  run_joints_in_parallel(job, job.rotations.joints, [](PopDetourJob slice, int begin, int end) {
+// PopFindJob and PopDetourJob, sliced by their joint_begin and joint_end.
+template <class Job>
+void run_joints_in_parallel(const Job& job) {
+  run_joints_in_parallel(job, job.rotations.joints, [](Job slice, int begin, int end) {
     slice.joint_begin = begin;
     slice.joint_end = end;
     return slice;
   });
+}
+
+// A segment's part of a clip's [F][J] sample flags.
+std::span<std::uint8_t> segment_slice(std::span<std::uint8_t> clip_flags, const Segment& seg,
+                                      int joints) {
+  return clip_flags.subspan(std::size_t(seg.begin) * std::size_t(joints),
+                            std::size_t(seg.frames()) * std::size_t(joints));
 }
 
 // The pop test on one segment's captured joints (all but the flipping ones), in three steps:
@@ -74,23 +75,19 @@ void run_joints_in_parallel(const PopDetourJob& job) {
 struct SegmentPopTest {
   RotationView rotations;  // the segment
   double frame_time = 0;
+  PopRepairParams params;  // pop_params_at(frame_time)
   std::span<const int> parents;
   std::span<const std::uint8_t> flipping, garbage;  // one per joint
   const StepAngles* steps = nullptr;                // the classification's, of the whole clip
   int step_offset = 0;                              // the segment's first frame
   std::span<std::uint8_t> flags;
 
-  void find(std::vector<float>& scratch) const {
-    const int F = rotations.frames, J = rotations.joints;
-    scratch.resize(std::size_t(F) * std::size_t(J) * 4);
-    PopRepairJob job;  // detection only: its output, a copy, is not read
-    job.io.frame_time = frame_time;
-    job.io.rotations = rotations;
-    job.io.filtered_rotations = {scratch.data(), F, J};
-    job.params = pop_params_at(frame_time);
-    job.skip_joints = flipping;
-    job.flagged_samples = flags;
-    job.repair = false;
+  void find() const {
+    PopFindJob job;
+    job.params = params;
+    job.rotations = rotations;
+    job.skip = flipping;
+    job.flags = flags;
     run_joints_in_parallel(job);
   }
   // A pop that fast motion hides from the fit still makes a detour; with the classification's
@@ -105,12 +102,18 @@ struct SegmentPopTest {
     job.step_offset = step_offset;
     run_joints_in_parallel(job);
   }
+  // The detour test's flags where `known` ([F][J] of the segment) has none.
+  void new_detours(std::span<const std::uint8_t> known) const {
+    detour();
+    for (std::size_t i = 0; i < flags.size(); ++i)
+      if (known[i]) flags[i] = 0;
+  }
   void skeleton(int pop_group = kPopGroup) const {
     PopSkeletonJob job;
     job.pop_group = pop_group;
     job.rotations = rotations;
     job.parents = parents;
-    job.params = pop_params_at(frame_time);
+    job.params = params;
     job.skip = garbage;
     job.flags = flags;
     if (const Status s = job.run(); !s.ok()) throw std::runtime_error("pop repair: " + s.message());
@@ -119,15 +122,20 @@ struct SegmentPopTest {
 
 // Flipping joints' pops, found between the joint's flips (clip/flip_pieces.hpp): to the test over
 // the whole curve every flip is a pop, inside a piece the joint moves as captured joints do.
-// Sets their flags in `flags` ([F][J] of the segment `rotations`).
-void find_pops_between_flips(RotationView rotations, std::span<const std::uint8_t> flipping,
-                             const PopRepairParams& params, std::span<std::uint8_t> flags) {
+// Sets their flags in `flags` ([F][J] of the segment `rotations`) and returns each joint's
+// pieces: a flipping joint's between its flips, the whole segment for a captured joint.
+std::vector<std::vector<Segment>> find_pops_between_flips(RotationView rotations,
+                                                          std::span<const std::uint8_t> flipping,
+                                                          const PopRepairParams& params,
+                                                          std::span<std::uint8_t> flags) {
   const int J = rotations.joints;
+  std::vector<std::vector<Segment>> pieces(std::size_t(J), {{0, rotations.frames}});
   std::vector<Quat> curve;
   std::vector<std::uint8_t> piece_flags;
   for (int j = 0; j < J; ++j) {
     if (!flipping[std::size_t(j)]) continue;
-    for (const Segment& piece : flip_pieces(rotations, j)) {
+    pieces[std::size_t(j)] = flip_pieces(rotations, j);
+    for (const Segment& piece : pieces[std::size_t(j)]) {
       if (piece.frames() < kPopRepairMinFrames) continue;
       const std::size_t n = std::size_t(piece.frames());
       curve.resize(n);
@@ -140,23 +148,22 @@ void find_pops_between_flips(RotationView rotations, std::span<const std::uint8_
           flags[(std::size_t(piece.begin) + t) * std::size_t(J) + std::size_t(j)] = 1;
     }
   }
+  return pieces;
 }
 
 // Repairs the flagged runs of one segment in place (repair_pops): a captured joint's over its
-// whole curve, a flipping joint's piece by piece between its flips, as they were found. Joints
-// are parallel tasks; each reads and writes only its own joint's samples, and reads a curve
-// before it writes any of it.
+// whole curve, a flipping joint's piece by piece between its flips: `pieces` as
+// find_pops_between_flips returned them. Joints are parallel tasks; each reads and writes only its
+// own joint's samples, and reads a curve before it writes any of it.
 void repair_segment(RotationSpan rotations, std::span<const std::uint8_t> flags,
-                    std::span<const std::uint8_t> flipping) {
-  const int F = rotations.frames, J = rotations.joints;
-  const RotationView view{rotations.data, F, J};
+                    const std::vector<std::vector<Segment>>& pieces) {
+  const int J = rotations.joints;
+  const RotationView view{rotations.data, rotations.frames, J};
   tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
     std::vector<Quat> curve, fixed;
     std::vector<std::uint8_t> piece_flags;
     for (int j = range.begin(); j < range.end(); ++j) {
-      const std::vector<Segment> pieces =
-          flipping[std::size_t(j)] ? flip_pieces(view, j) : std::vector<Segment>{{0, F}};
-      for (const Segment& piece : pieces) {
+      for (const Segment& piece : pieces[std::size_t(j)]) {
         const std::size_t n = std::size_t(piece.frames());
         piece_flags.resize(n);
         bool any = false;
@@ -225,10 +232,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   // The captured joints' flags of every segment ([F][J] of the clip), first: below
   // kPopsRepairMinFps auto repairs only a clip whose flags are many.
   std::vector<std::uint8_t> flags(std::size_t(F) * std::size_t(J), 0);
-  const auto segment_flags = [&](const Segment& seg) {
-    return std::span<std::uint8_t>(flags).subspan(std::size_t(seg.begin) * std::size_t(J),
-                                                  std::size_t(seg.frames()) * std::size_t(J));
-  };
+  const PopRepairParams params = pop_params_at(frame_time);
   const auto segment_rotations = [&](const Segment& seg) {
     return RotationSpan{rotations.data + std::size_t(seg.begin) * std::size_t(J) * 4, seg.frames(),
                         J};
@@ -238,20 +242,18 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     SegmentPopTest test;
     test.rotations = {part.data, part.frames, J};
     test.frame_time = frame_time;
+    test.params = params;
     test.parents = parents;
     test.flipping = flipping;
     test.garbage = c.garbage;
     test.steps = &angles;
     test.step_offset = seg.begin;
-    test.flags = std::span<std::uint8_t>(clip_flags)
-                     .subspan(std::size_t(seg.begin) * std::size_t(J),
-                              std::size_t(seg.frames()) * std::size_t(J));
+    test.flags = segment_slice(clip_flags, seg, J);
     return test;
   };
-  std::vector<float> scratch;
   for (const Segment& seg : c.segments) {
     const SegmentPopTest test = segment_test(seg, flags);
-    test.find(scratch);
+    test.find();
     if (skeleton_test) {
       test.detour();
       test.skeleton();
@@ -274,9 +276,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     std::vector<std::uint8_t> detours(flags.size(), 0);
     for (const Segment& seg : c.segments) {
       const SegmentPopTest test = segment_test(seg, detours);
-      test.detour();
-      for (std::size_t i = 0; i < test.flags.size(); ++i)
-        if (flags[std::size_t(seg.begin) * std::size_t(J) + i]) test.flags[i] = 0;
+      test.new_detours(segment_slice(flags, seg, J));
       test.skeleton(0);
     }
     for (std::size_t i = 0; i < flags.size(); ++i) flags[i] |= detours[i];
@@ -288,9 +288,10 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   if (c.repaired)
     for (const Segment& seg : c.segments) {
       const RotationSpan part = segment_rotations(seg);
-      find_pops_between_flips({part.data, part.frames, J}, flipping, pop_params_at(frame_time),
-                              segment_flags(seg));
-      repair_segment(part, segment_flags(seg), flipping);
+      const std::span<std::uint8_t> part_flags = segment_slice(flags, seg, J);
+      repair_segment(
+          part, part_flags,
+          find_pops_between_flips({part.data, part.frames, J}, flipping, params, part_flags));
     }
   for (std::size_t i = 0; i < flags.size(); ++i)
     if (flags[i]) {

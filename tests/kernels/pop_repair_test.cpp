@@ -76,7 +76,7 @@ struct Result {
   Status status;
 };
 
-Result run_job(const Motion& in, const PopRepairParams& params = {}, bool repair = true,
+Result run_job(const Motion& in, const PopRepairParams& params = {},
                std::span<const std::uint8_t> skip = {}) {
   Result r{in,
            std::vector<int>(std::size_t(in.joints), -1),
@@ -90,7 +90,6 @@ Result run_job(const Motion& in, const PopRepairParams& params = {}, bool repair
   job.skip_joints = skip;
   job.flagged_per_joint = r.per_joint;
   job.flagged_samples = r.flagged;
-  job.repair = repair;
   r.status = job.run();
   return r;
 }
@@ -148,7 +147,7 @@ TEST(PopRepair, CleanRealClipsFlagAlmostNothing) {
     for (const auto& path : test::shared_bvh_files()) {
       const Motion m = real_motion(path, 300, stride);
       const std::vector<std::uint8_t> skip = garbage_mask(m.view());
-      const Result r = run_job(m, {}, true, skip);
+      const Result r = run_job(m, {}, skip);
       ASSERT_TRUE(r.status) << r.status.message();
       for (int j = 0; j < m.joints; ++j) samples += skip[std::size_t(j)] ? 0 : m.frames;
       flagged += total(r.per_joint);
@@ -185,7 +184,7 @@ TEST(PopRepair, ImpulseNoiseOnRealClipsIsFoundAndRepaired) {
     // Classified on the noisy clip, as the engine sees it.
     const std::vector<std::uint8_t> skip = garbage_mask(noisy.view());
     EXPECT_EQ(skip, garbage_mask(clean.view())) << path;
-    const Result r = run_job(noisy, {}, true, skip), reference = run_job(clean, {}, true, skip);
+    const Result r = run_job(noisy, {}, skip), reference = run_job(clean, {}, skip);
     ASSERT_TRUE(r.status) << r.status.message();
 
     std::vector<std::uint8_t> moving(skip.size()), steady(skip.size());
@@ -272,18 +271,29 @@ TEST(PopRepair, RunsOfOneTwoAndThreePops) {
   }
 }
 
-TEST(PopRepair, DetectModeCopiesBitsAndCountsTheSame) {
+// PopFindJob flags what PopRepairJob repairs, in any joint slice (every flag written).
+TEST(PopRepair, FindJobFlagsWhatTheRepairJobRepairs) {
   MOCAP_REQUIRE_SHARED_CLIPS();
   Motion noisy = real_motion(test::shared_bvh_files().front(), 300);
   add_noise(ImpulseNoise{0.01, 0.3, 1.0, 9}, noisy.span());
-  const Result repaired = run_job(noisy, {}, true), detected = run_job(noisy, {}, false);
-  ASSERT_TRUE(detected.status) << detected.status.message();
-  EXPECT_EQ(detected.out.rotations, noisy.rotations);
+  std::vector<std::uint8_t> skip(std::size_t(noisy.joints), 0);
+  skip[3] = skip[7] = 1;
+  const Result repaired = run_job(noisy, {}, skip);
+  ASSERT_TRUE(repaired.status) << repaired.status.message();
   EXPECT_NE(repaired.out.rotations, noisy.rotations);
-  EXPECT_EQ(detected.per_joint, repaired.per_joint);
-  EXPECT_EQ(detected.flagged, repaired.flagged);
-  EXPECT_GT(total(detected.per_joint), 50);
-  // Unflagged samples pass through bit for bit in repair mode too.
+  EXPECT_GT(total(repaired.per_joint), 50);
+  std::vector<std::uint8_t> flags(repaired.flagged.size(), 7);
+  for (int j0 : {0, 5, 11}) {
+    PopFindJob job;
+    job.rotations = noisy.view();
+    job.skip = skip;
+    job.flags = flags;
+    job.joint_begin = j0;
+    job.joint_end = j0 == 0 ? 5 : j0 == 5 ? 11 : -1;
+    ASSERT_TRUE(job.run());
+  }
+  EXPECT_EQ(flags, repaired.flagged);
+  // Unflagged samples pass through bit for bit in the repair job.
   for (std::size_t i = 0; i < repaired.flagged.size(); ++i) {
     if (repaired.flagged[i]) continue;
     EXPECT_TRUE(std::equal(&noisy.rotations[4 * i], &noisy.rotations[4 * i + 4],
@@ -291,11 +301,29 @@ TEST(PopRepair, DetectModeCopiesBitsAndCountsTheSame) {
   }
 }
 
+TEST(PopRepair, FindJobExplainsWhatIsWrong) {
+  const Motion m = fast_smooth_motion(4, 40, 3, 0.05);
+  std::vector<std::uint8_t> flags(std::size_t(m.frames) * 3), short_flags(7), skip(2);
+  PopFindJob job;
+  job.rotations = m.view();
+  job.flags = short_flags;
+  EXPECT_NE(job.run().message().find("flags must have one entry per sample"), std::string::npos);
+  job.flags = flags;
+  job.skip = skip;
+  EXPECT_NE(job.run().message().find("skip must have one entry per joint"), std::string::npos);
+  job.skip = {};
+  job.joint_end = 4;
+  EXPECT_NE(job.run().message().find("outside the clip's 3 joints"), std::string::npos);
+  job.joint_end = -1;
+  job.params.max_run = 0;
+  EXPECT_FALSE(job.run());
+}
+
 TEST(PopRepair, SkippedJointsAreLeftAsTheyCame) {
   Motion noisy = fast_smooth_motion(3, 300, 6, 0.1);
   add_noise(ImpulseNoise{0.03, 0.3, 1.0, 4}, noisy.span());
   const std::vector<std::uint8_t> skip{1, 0, 0, 1, 0, 1};
-  const Result r = run_job(noisy, {}, true, skip);
+  const Result r = run_job(noisy, {}, skip);
   ASSERT_TRUE(r.status) << r.status.message();
   for (int j = 0; j < noisy.joints; ++j) {
     bool same = true;
