@@ -149,7 +149,8 @@ void for_each_patch_sum(const NlpmParams& params, RotationView rotations,
     // D(t, t + delta) for t in the chunk reads E[u][delta] for u in [t - P, t + P], and through
     // symmetry E[u + delta][-delta] down to u + delta = chunk - P - K.
     const long u_begin = chunk - patch - search, u_end = chunk_end + patch;
-    track.load(rotations, joints, params.boundary, params.space, u_begin, u_end - u_begin + search);
+    track.load(rotations, joints, params.boundary, params.space, u_begin, u_end - u_begin + search,
+               params.distance_cap);
     band.compute(track, u_begin, u_end, search);
 
     for (long anchor = chunk; anchor < chunk_end; anchor += kNlpmAnchorFrames) {
@@ -196,6 +197,12 @@ Status NlpmParams::validate() const {
   if (!(range_sigma >= 0) || !std::isfinite(range_sigma))
     return Status::error("range_sigma must be a finite angle >= 0 rad (0 = off), got " +
                          format("%g", range_sigma));
+  if (!(distance_cap >= 0) || !std::isfinite(distance_cap))
+    return Status::error("distance_cap must be a finite angle >= 0 rad (0 = off), got " +
+                         format("%g", distance_cap));
+  if (distance_cap > 0 && space != NlpmSpace::tangent)
+    return Status::error("distance_cap > 0 needs space tangent, got space " +
+                         std::string(to_string(space)));
   if (range_sigma > 0 && space != NlpmSpace::tangent)
     return Status::error(
         "range_sigma > 0 needs space tangent (the log space is the paper's, "

@@ -56,12 +56,16 @@ struct NlpmParams {
   // rad; 0 = off: exactly the spec's nlpm (bit for bit as without the option). > 0: the range
   // term above with sigma_g = range_sigma (tangent space only; the log space is the paper's).
   double range_sigma = 0;
+  // rad; 0 = off (the spec's e). > 0: each joint's term of e(u, v) is capped,
+  // min(d^2, distance_cap^2), so one joint far from its pose (a glitch of the capture, a pop the
+  // pop stage missed) cannot make a whole patch unlike its neighbours' (tangent space only).
+  double distance_cap = 0;
   // frames; the Gaussian of the translated joints (above); 0 = translations unchanged.
   double translation_sigma_t = 1.0;
   int translation_reach() const;  // ceil(3 translation_sigma_t)
 
   // K >= 1, P >= 0 (both at most kNlpmMaxRadius), h >= 0 and finite (0 = still to be derived),
-  // range_sigma >= 0 and finite, and range_sigma > 0 only with space tangent;
+  // range_sigma and distance_cap >= 0 and finite, and > 0 only with space tangent;
   // translation_sigma_t >= 0, finite and at most kNlpmMaxRadius.
   Status validate() const;
 };

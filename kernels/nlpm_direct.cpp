@@ -16,7 +16,9 @@ double pose_distance(const NlpmParams& params, RotationView rotations,
     const Quat b = extended_rotation(rotations, j, v, params.boundary);
     if (params.space == NlpmSpace::tangent) {
       const double d = geodesic(a, b);
-      sum += d * d;
+      // distance_cap (nlpm.hpp): each joint's term at most cap^2.
+      sum += params.distance_cap > 0 ? std::min(d * d, params.distance_cap * params.distance_cap)
+                                     : d * d;
     } else {
       const Vec3 diff = log(a) - log(b);
       sum += dot(diff, diff);

@@ -1,5 +1,8 @@
 #include "kernels/pose_distance.hpp"
 
+#include <algorithm>
+#include <limits>
+
 namespace mocap {
 
 std::optional<NlpmSpace> parse_nlpm_space(std::string_view name) {
@@ -13,11 +16,12 @@ std::string_view to_string(NlpmSpace space) {
 }
 
 void PoseTrack::load(RotationView rotations, std::span<const int> distance_joints,
-                     Boundary boundary, NlpmSpace space, long first, long count) {
+                     Boundary boundary, NlpmSpace space, long first, long count, double cap) {
   first_ = first;
   count_ = count;
   joints_ = int(distance_joints.size());
   space_ = space;
+  cap_squared_ = cap > 0 ? cap * cap : std::numeric_limits<double>::infinity();
   samples_.resize(std::size_t(count) * std::size_t(joints_));
   for (long i = 0; i < count; ++i) {
     for (int k = 0; k < joints_; ++k) {
@@ -40,7 +44,7 @@ double PoseTrack::distance(long u, long v) const {
   if (space_ == NlpmSpace::tangent) {
     for (int k = 0; k < joints_; ++k) {
       const double d = geodesic(a[k], b[k]);
-      sum += d * d;
+      sum += std::min(d * d, cap_squared_);
     }
   } else {
     // Differences of Log vectors: a - b and b - a square to the same value, so e stays symmetric.

@@ -33,11 +33,12 @@ std::string_view to_string(NlpmSpace space);
 // The distance joints' samples of frames [first, first + count), boundary-extended (any frame
 // index is allowed), in the representation e(u, v) reads: the rotation (tangent) or its Log
 // (log, stored in x, y, z with w = 0). Each sample depends on its frame index only, never on
-// `first` or `count`, so distances are the same whatever range a caller loads.
+// `first` or `count`, so distances are the same whatever range a caller loads. `cap` > 0 (tangent
+// only) caps each joint's term at cap^2 (NlpmParams::distance_cap).
 class PoseTrack {
  public:
   void load(RotationView rotations, std::span<const int> distance_joints, Boundary boundary,
-            NlpmSpace space, long first, long count);
+            NlpmSpace space, long first, long count, double cap = 0);
 
   // e(u, v) for u, v in [first, first + count). Symmetric bit for bit: e(u, v) == e(v, u).
   double distance(long u, long v) const;
@@ -50,6 +51,7 @@ class PoseTrack {
   long first_ = 0, count_ = 0;
   int joints_ = 0;
   NlpmSpace space_ = NlpmSpace::tangent;
+  double cap_squared_ = 0;  // +inf: no cap
 };
 
 // E[u][delta] = e(u, u + delta) for u in [u_begin, u_end) and 0 <= delta <= max_delta, the

@@ -264,6 +264,12 @@ inline constexpr double kNoisyPositions = 0.0015;
 // "Positions").
 inline constexpr double kAutoNlpmMinH = 0.015;
 inline constexpr double kAutoNlpmMinRange = 0.1;
+// auto's nlpm caps each joint's term of the pose distance at kAutoNlpmDistanceCap times its range
+// width (NlpmParams::distance_cap): a capture's own one-frame glitch, or a pop the pop stage
+// missed, otherwise makes every patch that holds it unlike its neighbours, and the weights then
+// average a fast knee toward one side. Calibrated with eval on the shared clips, clean and with
+// pops, at 120 and 30 fps (README "Automatic parameters", "The distance cap").
+inline constexpr double kAutoNlpmDistanceCap = 2.0;
 FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
                                 bool noisy_positions = false, double frame_time = 1.0 / 120);
 // Whether a clip's position channels carry noise by the rule above (false without any).

@@ -283,6 +283,7 @@ MethodEntry nlpm_entry() {
             j["h"] = or_auto(n.h, n.h == 0);
             j["space"] = n.space == NlpmSpace::log ? "log" : "tangent";
             j["range_sigma"] = or_auto(n.range_sigma, n.range_sigma < 0);
+            j["distance_cap"] = n.distance_cap;
             j["translation_sigma_t"] = or_auto(n.translation_sigma_t, n.translation_sigma_t < 0);
             j["boundary"] = std::string(to_string(n.boundary));
           },
@@ -295,6 +296,7 @@ MethodEntry nlpm_entry() {
             if (c.automatic) {
               n.h = std::max(n.h, kAutoNlpmMinH);
               n.range_sigma = std::max(n.range_sigma, kAutoNlpmMinRange);
+              n.distance_cap = kAutoNlpmDistanceCap * n.range_sigma;
             }
             n.range_sigma = std::max(0.0, n.range_sigma);
             if (n.translation_sigma_t < 0)
@@ -562,6 +564,7 @@ json nlpm_used(const FilterSettings& s) {
                {"P", n.patch_radius},
                {"translation_sigma_t", n.translation_sigma_t}};
   if (kRobust) used["range_sigma"] = n.range_sigma;
+  if (n.distance_cap > 0) used["distance_cap"] = n.distance_cap;  // auto's
   return used;
 }
 

@@ -96,7 +96,8 @@ std::string readable_parameters(const nlohmann::json& parameters) {
   for (const auto& [key, value] : parameters.items()) {
     if (key == "method") continue;
     std::string text;
-    if (value.is_number() && (key == "sigma_g" || key == "h" || key == "range_sigma"))
+    if (value.is_number() &&
+        (key == "sigma_g" || key == "h" || key == "range_sigma" || key == "distance_cap"))
       text = fmt::format("{:.3g}°", value.get<double>() * kDegrees);
     else if (value.is_number() && (key == "sigma_t" || key == "window" || key == "search_radius" ||
                                    key == "patch_radius" || key == "translation_sigma_t"))

@@ -19,13 +19,14 @@ HWY_BEFORE_NAMESPACE();
 namespace mocap::simd::HWY_NAMESPACE {
 
 void AccumulatePoseBand(const float* planes, std::size_t stride, std::size_t count, int max_delta,
-                        float* band) {
+                        float cap_squared, float* band) {
   const hn::ScalableTag<float> d;
   const std::size_t lanes = hn::Lanes(d);
+  const auto cap = hn::Set(d, cap_squared);
   for (std::size_t u = 0; u < count; u += lanes) {
     const auto a = LoadQuat(d, planes, stride, u);
     for (std::size_t delta = 1; delta <= std::size_t(max_delta); ++delta) {
-      const auto d2 = GeodesicSquared(d, a, LoadQuat(d, planes, stride, u + delta));
+      const auto d2 = hn::Min(GeodesicSquared(d, a, LoadQuat(d, planes, stride, u + delta)), cap);
       float* row = band + (delta - 1) * stride + u;
       hn::StoreU(hn::Add(hn::LoadU(d, row), d2), d, row);
     }
@@ -101,8 +102,8 @@ HWY_EXPORT(AverageTangent);
 HWY_EXPORT(AverageTangentRange);
 
 void accumulate_pose_band(const float* planes, std::size_t stride, std::size_t count, int max_delta,
-                          float* band) {
-  HWY_DYNAMIC_DISPATCH(AccumulatePoseBand)(planes, stride, count, max_delta, band);
+                          float cap_squared, float* band) {
+  HWY_DYNAMIC_DISPATCH(AccumulatePoseBand)(planes, stride, count, max_delta, cap_squared, band);
 }
 
 namespace {
@@ -155,13 +156,16 @@ struct ChunkCurves {
 class Band {
  public:
   void compute(const ChunkCurves& curves, const std::vector<int>& joints, long u_begin, long u_end,
-               int search) {
+               int search, double distance_cap) {
+    const float cap_squared = distance_cap > 0 ? float(distance_cap * distance_cap)
+                                               : std::numeric_limits<float>::infinity();
     u_begin_ = u_begin;
     const std::size_t count = std::size_t(u_end - u_begin);
     sums_.assign(std::size_t(search) * curves.stride, 0.0f);
     // In joint order, so that every e(u, v) sums its joints in the same order whatever the chunk.
     for (int joint : joints)
-      accumulate_pose_band(curves.at(joint, u_begin), curves.stride, count, search, sums_.data());
+      accumulate_pose_band(curves.at(joint, u_begin), curves.stride, count, search, cap_squared,
+                           sums_.data());
     width_ = std::size_t(search) + 1;
     values_.resize(count * width_);
     const double joint_count = double(joints.size());
@@ -274,7 +278,7 @@ void nlpm_tangent(const NlpmJob& job) {
     // u + delta. The averaging reads [t - K, t + K], inside the same range.
     const long u_begin = chunk - patch - search, u_end = chunk_end + patch;
     curves.load(io.rotations, params.boundary, u_begin, std::size_t(u_end + search - u_begin));
-    band.compute(curves, joints, u_begin, u_end, search);
+    band.compute(curves, joints, u_begin, u_end, search, params.distance_cap);
     const long out_begin = std::max(chunk, frame_begin);
     const std::size_t count = std::size_t(chunk_end - out_begin);
     w.wstride = plane_size(count);

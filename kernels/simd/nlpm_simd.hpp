@@ -16,9 +16,10 @@ namespace mocap::simd {
 // band[(delta - 1) * stride + u] += d(q_u, q_{u + delta})^2 for u in [0, count), 1 <= delta <= K,
 // from one joint's curve as 4 planes of `stride` floats (stride >= count + K + kMaxLanes, rounded
 // up to whole vectors); the band rows share the stride. Called once per distance joint, in joint
-// order, it sums the squared distances of e(u, v) (before the division by J_d).
+// order, it sums the squared distances of e(u, v) (before the division by J_d), each capped at
+// cap_squared (+inf: no cap; NlpmParams::distance_cap).
 void accumulate_pose_band(const float* planes, std::size_t stride, std::size_t count, int max_delta,
-                          float* band);
+                          float cap_squared, float* band);
 
 // The rotations and translations of job's output slice (job valid, space tangent, F >= 2).
 void nlpm_tangent(const NlpmJob& job);

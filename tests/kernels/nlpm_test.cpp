@@ -1029,6 +1029,31 @@ std::vector<bool> ambiguous_joints(const Clip& clip) {
   return out;
 }
 
+// The fast path against the reference on `clip`: RMS and largest rotation difference (rad) over
+// the joints with no ambiguous step.
+struct Agreement {
+  double rms = 0, max = 0;
+};
+Agreement fast_against_reference(const Clip& clip, const NlpmParams& params) {
+  const std::vector<bool> excluded = ambiguous_joints(clip);
+  const Output fast = run_nlpm(clip, params, {}, false, {}, Implementation::fast);
+  const Output reference = run_nlpm(clip, params, {}, false, {}, Implementation::reference);
+  double sum = 0;
+  long count = 0;
+  Agreement a;
+  for (int t = 0; t < clip.frames; ++t)
+    for (int j = 0; j < clip.joints; ++j) {
+      if (excluded[std::size_t(j)]) continue;
+      const double d = test::rotation_error(fast.view(clip), reference.view(clip), t, j);
+      sum += d * d;
+      a.max = std::max(a.max, d);
+      ++count;
+    }
+  EXPECT_GT(count, 0);
+  a.rms = count > 0 ? std::sqrt(sum / double(count)) : 0;
+  return a;
+}
+
 TEST(NlpmRange, FastAgreesWithTheReference) {
   // The float32 path against the double reference, with simd_kernels_test's tolerances (1e-5 rad
   // RMS, 1e-4 rad max), on noisy motions with a flipping joint and on real clips with noise;
@@ -1045,31 +1070,16 @@ TEST(NlpmRange, FastAgreesWithTheReference) {
                               range_params(3, 1, 0.05, 1.0, Boundary::extrapolate),
                               range_params(1, 0, 0.02, 0.01), range_params(4, 2, 0.05, 1e-30)};
   double worst_rms = 0, worst_max = 0;
-  for (const auto& [name, clip] : clips) {
-    const std::vector<bool> excluded = ambiguous_joints(clip);
+  for (const auto& [name, clip] : clips)
     for (const NlpmParams& params : cases) {
-      const Output fast = run_nlpm(clip, params, {}, false, {}, Implementation::fast);
-      const Output reference = run_nlpm(clip, params, {}, false, {}, Implementation::reference);
-      double sum = 0, worst = 0;
-      long count = 0;
-      for (int t = 0; t < clip.frames; ++t)
-        for (int j = 0; j < clip.joints; ++j) {
-          if (excluded[std::size_t(j)]) continue;
-          const double d = test::rotation_error(fast.view(clip), reference.view(clip), t, j);
-          sum += d * d;
-          worst = std::max(worst, d);
-          ++count;
-        }
-      ASSERT_GT(count, 0);
-      const double rms = std::sqrt(sum / double(count));
+      const Agreement a = fast_against_reference(clip, params);
       const std::string label = name + " K " + std::to_string(params.search_radius) +
                                 " range_sigma " + std::to_string(params.range_sigma);
-      EXPECT_LT(rms, 1e-5) << label;
-      EXPECT_LT(worst, 1e-4) << label;
-      worst_rms = std::max(worst_rms, rms);
-      worst_max = std::max(worst_max, worst);
+      EXPECT_LT(a.rms, 1e-5) << label;
+      EXPECT_LT(a.max, 1e-4) << label;
+      worst_rms = std::max(worst_rms, a.rms);
+      worst_max = std::max(worst_max, a.max);
     }
-  }
   std::printf("fast against reference, range form: worst RMS %.2g rad, worst max %.2g rad\n",
               worst_rms, worst_max);
 }
@@ -1089,6 +1099,136 @@ TEST(NlpmRange, ValidateSaysWhatIsWrong) {
   p = range_params(10, 5, 0.05, 0.1);
   p.space = NlpmSpace::log;
   EXPECT_NE(p.validate().message().find("range_sigma > 0 needs space tangent"), std::string::npos);
+}
+
+// ---- The distance cap (NlpmParams::distance_cap > 0): each joint's term of e(u, v) capped. ----
+
+NlpmParams capped_params(int search, int patch, double h, double range_sigma, double cap,
+                         Boundary boundary = Boundary::mirror) {
+  NlpmParams p = range_params(search, patch, h, range_sigma, boundary);
+  p.distance_cap = cap;
+  return p;
+}
+
+TEST(NlpmCap, MatchesDirectSum) {
+  // The band form against the literal double sum with min(d^2, cap^2) per joint, in the plain and
+  // the range form, windows past both ends; caps below the flipping joint's jump and, for 0.05,
+  // below part of the noise's steps.
+  struct Case {
+    int frames, joints, search, patch;
+    double h, range_sigma, cap;
+  };
+  const Case cases[] = {{40, 4, 3, 2, 0.05, 0, 0.3},
+                        {40, 4, 10, 5, 0.02, 0.09, 0.18},
+                        {150, 3, 10, 5, 0.05, 0.1, 0.05},
+                        {3, 3, 10, 5, 0.05, 0, 0.2}};
+  std::uint64_t seed = 70;
+  for (const Case& c : cases)
+    for (Boundary boundary : {Boundary::mirror, Boundary::hold, Boundary::extrapolate}) {
+      const Clip clip = flipping_clip(++seed, c.frames, c.joints);
+      const NlpmParams params =
+          capped_params(c.search, c.patch, c.h, c.range_sigma, c.cap, boundary);
+      const Output reference = run_nlpm(clip, params, {}, false, {}, Implementation::reference);
+      const Output direct = run_nlpm(clip, params, {}, true);
+      const std::string label = "F " + std::to_string(c.frames) + " K " + std::to_string(c.search) +
+                                " cap " + std::to_string(c.cap) + " boundary " +
+                                std::string(to_string(boundary));
+      const auto errors = test::rotation_errors(reference.view(clip), direct.view(clip));
+      EXPECT_LT(errors.max, 1e-6) << label;
+      EXPECT_LT(errors.rms, 1e-7) << label;
+      // Not vacuous: the cap changed the result (the 3-frame clip, there for its ends, has no jump
+      // beyond its cap).
+      if (c.frames == 3) continue;
+      NlpmParams uncapped = params;
+      uncapped.distance_cap = 0;
+      const Output plain = run_nlpm(clip, uncapped, {}, false, {}, Implementation::reference);
+      EXPECT_GT(test::rotation_errors(reference.view(clip), plain.view(clip)).rms, 1e-4) << label;
+    }
+}
+
+TEST(NlpmCap, FastAgreesWithTheReference) {
+  // The float32 path (its cap is a float min in the band) against the double reference, with the
+  // tolerances of NlpmRange.FastAgreesWithTheReference, on a flipping motion and on real clips
+  // with noise, at auto's form (cap twice range_sigma) and a cap alone.
+  std::vector<std::pair<std::string, Clip>> clips;
+  clips.push_back({"random 200x6", flipping_clip(80, 200, 5)});
+  for (auto& [name, clip] : shared_clips(120)) {
+    add_noise(GaussianNoise{0.03, 81}, {clip.rotations.data(), clip.frames, clip.joints});
+    clips.push_back({name, std::move(clip)});
+  }
+  const NlpmParams cases[] = {capped_params(10, 5, 0.036, 0.1, 0.2),
+                              capped_params(4, 2, 0.05, 0, 0.05, Boundary::hold)};
+  for (const auto& [name, clip] : clips)
+    for (const NlpmParams& params : cases) {
+      const Agreement a = fast_against_reference(clip, params);
+      const std::string label = name + " cap " + std::to_string(params.distance_cap);
+      EXPECT_LT(a.rms, 1e-5) << label;
+      EXPECT_LT(a.max, 1e-4) << label;
+    }
+}
+
+TEST(NlpmCap, AGlitchBeyondTheCapLeavesEveryOtherJointAlone) {
+  // The property the cap exists for: one joint's one-frame glitch farther than the cap from every
+  // sample it is compared with adds exactly cap^2 to each of its terms whatever its size, so
+  // every other joint's output (and the translations, which use the same weights) is the same
+  // bit for bit for a glitch of 1.5 rad and of 2.5 rad. Without the cap the glitch's size moves
+  // the weights of every patch that holds it.
+  const int frames = 120, joints = 5, glitch_frame = 60, glitch_joint = 2;
+  const Clip base = random_clip(90, frames, joints, 0.01);
+  const auto glitched = [&](double angle) {
+    Clip clip = base;
+    float* q = &clip.rotations[(std::size_t(glitch_frame) * joints + glitch_joint) * 4];
+    store_quat(load_quat(q) * exp({0, 0, angle}), q);
+    return clip;
+  };
+  const Clip small = glitched(1.5), large = glitched(2.5);
+  for (Implementation implementation : kImplementations)
+    for (double range_sigma : {0.0, 0.1}) {
+      const NlpmParams params = capped_params(10, 5, 0.03, range_sigma, 0.2);
+      // The premise: the glitched sample is beyond the cap from every sample in its reach.
+      const int reach = params.search_radius + params.patch_radius;
+      for (const Clip* clip : {&small, &large})
+        for (int v = glitch_frame - 2 * reach; v <= glitch_frame + 2 * reach; ++v) {
+          if (v == glitch_frame) continue;
+          ASSERT_GT(geodesic(load_quat(clip->view().at(glitch_frame, glitch_joint)),
+                             load_quat(clip->view().at(v, glitch_joint))),
+                    params.distance_cap);
+        }
+      const std::string label =
+          std::string(to_string(implementation)) + " range_sigma " + std::to_string(range_sigma);
+      NlpmParams uncapped = params;
+      uncapped.distance_cap = 0;
+      for (const NlpmParams& p : {params, uncapped}) {
+        const Output a = run_nlpm(small, p, {}, false, {}, implementation);
+        const Output b = run_nlpm(large, p, {}, false, {}, implementation);
+        bool others_same = a.translations == b.translations;
+        for (int t = 0; t < frames; ++t)
+          for (int j = 0; j < joints; ++j) {
+            const std::size_t at = (std::size_t(t) * joints + j) * 4;
+            if (j != glitch_joint)
+              others_same = others_same && std::memcmp(&a.rotations[at], &b.rotations[at], 16) == 0;
+          }
+        if (p.distance_cap > 0)
+          EXPECT_TRUE(others_same) << label;
+        else
+          EXPECT_FALSE(others_same) << label << ": the premise, the glitch moves the others";
+      }
+    }
+}
+
+TEST(NlpmCap, ValidateSaysWhatIsWrong) {
+  NlpmParams p = capped_params(10, 5, 0.05, 0.1, 0.2);
+  EXPECT_TRUE(p.validate().ok());
+  p.distance_cap = -0.1;
+  EXPECT_EQ(p.validate().message(),
+            "distance_cap must be a finite angle >= 0 rad (0 = off), got -0.1");
+  p.distance_cap = INFINITY;
+  EXPECT_FALSE(p.validate().ok());
+  p.distance_cap = NAN;
+  EXPECT_FALSE(p.validate().ok());
+  p = capped_params(10, 5, 0.05, 0, 0.2);
+  p.space = NlpmSpace::log;
+  EXPECT_EQ(p.validate().message(), "distance_cap > 0 needs space tangent, got space log");
 }
 
 }  // namespace

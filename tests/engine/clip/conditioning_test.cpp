@@ -318,6 +318,11 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
       resolved.settings.param<NlpmParams>().range_sigma,
       std::max(engine::kNlpmAutoRangeFactor * resolved.noise_sigma, engine::kAutoNlpmMinRange),
       1e-12);
+  // Each joint's term of the pose distance capped at twice the range width, so a glitch on one
+  // joint cannot make whole patches unlike their neighbours.
+  EXPECT_EQ(resolved.settings.param<NlpmParams>().distance_cap,
+            engine::kAutoNlpmDistanceCap * resolved.settings.param<NlpmParams>().range_sigma);
+  EXPECT_GT(resolved.settings.param<NlpmParams>().distance_cap, 0);
   // The flipping joint is left out of the noise estimate: it stays near the added jitter.
   EXPECT_GT(resolved.noise_sigma, 0.001);
   EXPECT_LT(resolved.noise_sigma, 0.006);
@@ -412,6 +417,8 @@ TEST_F(ConditioningCli, TheSummarySaysWhatTheAutomaticParametersBecame) {
               std::max(engine::kNlpmAutoFactor * sigma, engine::kAutoNlpmMinH), 1e-12);
   EXPECT_NEAR(chosen["parameters"]["range_sigma"].get<double>(),
               std::max(engine::kNlpmAutoRangeFactor * sigma, engine::kAutoNlpmMinRange), 1e-12);
+  EXPECT_EQ(chosen["parameters"]["distance_cap"].get<double>(),
+            engine::kAutoNlpmDistanceCap * chosen["parameters"]["range_sigma"].get<double>());
   EXPECT_GE(chosen["parameters"]["translation_sigma_t"].get<double>(), 0.0);
   EXPECT_EQ(j["automatic"]["methods"]["nlpm"], 1);
 

@@ -265,7 +265,7 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
     Method chosen;
   } clips[] = {
       {0.001, 0, Method::nlpm}, {0.05, 0, Method::bof}, {0.02, 0.004, Method::butterworth}};
-  int auto_smooth = 0;
+  int auto_smooth = 0, capped = 0;
   for (const auto& c : clips) {
     const Clip input = noisy_walk(c.sigma, c.position);
     for (const Case& k : cases) {
@@ -296,6 +296,10 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
         if (s.param<NlpmParams>().range_sigma != 0) {
           EXPECT_EQ(used.at("range_sigma"), s.param<NlpmParams>().range_sigma);
         }
+        if (s.param<NlpmParams>().distance_cap != 0) {
+          EXPECT_EQ(used.at("distance_cap"), s.param<NlpmParams>().distance_cap);
+          ++capped;
+        }
       }
       if (s.method == Method::kalman) {
         EXPECT_EQ(used.at("lambda"), s.param<KalmanParams>().lambda);
@@ -307,6 +311,7 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
     }
   }
   EXPECT_EQ(auto_smooth, 1);  // the noisy positions branch was reached, and only there
+  EXPECT_EQ(capped, 1);       // auto's nlpm alone caps the pose distance
 }
 
 }  // namespace

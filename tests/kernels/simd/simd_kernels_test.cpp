@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <random>
 #include <string>
@@ -30,7 +31,8 @@
 namespace mocap {
 namespace {
 
-constexpr double kRmsTolerance = 1e-5, kMaxTolerance = 1e-4;  // rad
+constexpr double kRmsTolerance = 1e-5, kMaxTolerance = 1e-4;      // rad
+constexpr float kNoCap = std::numeric_limits<float>::infinity();  // accumulate_pose_band: no cap
 
 // A motion and where it came from, for messages.
 struct Motion {
@@ -199,7 +201,9 @@ std::string describe(const BilateralParams& p) {
 
 std::string describe(const NlpmParams& p) {
   return "nlpm K " + std::to_string(p.search_radius) + " P " + std::to_string(p.patch_radius) +
-         " h " + std::to_string(p.h) + " boundary " + std::string(to_string(p.boundary));
+         " h " + std::to_string(p.h) + " range_sigma " + std::to_string(p.range_sigma) +
+         " distance_cap " + std::to_string(p.distance_cap) + " boundary " +
+         std::string(to_string(p.boundary));
 }
 
 std::vector<Motion> test_motions() {
@@ -353,7 +357,7 @@ TEST_P(SimdKernels, ShortcutsDoNotDependOnTheOtherLanes) {
     std::fill_n(planes.begin(), stride, 1.0f);
     for (std::size_t i = 0; i < count; ++i)  // curve: identity, sample, identity, sample, ...
       for (std::size_t c = 0; c < 4; ++c) planes[c * stride + 2 * i + 1] = q[c * count + i];
-    simd::accumulate_pose_band(planes.data(), stride, 2 * count, 1, band.data());
+    simd::accumulate_pose_band(planes.data(), stride, 2 * count, 1, kNoCap, band.data());
     return band;
   };
   const std::vector<float> band_alone = band_of(q_alone, n), band_mixed = band_of(q_mixed, 2 * n);
@@ -476,6 +480,15 @@ std::vector<NlpmParams> nlpm_cases() {
   tiny.search_radius = 1;
   tiny.patch_radius = 0;
   out.push_back(tiny);
+  // auto's form: range terms and a distance cap at twice their width, and a cap alone.
+  NlpmParams capped;
+  capped.h = 0.015;
+  capped.range_sigma = 0.1;
+  capped.distance_cap = 0.2;
+  out.push_back(capped);
+  capped.range_sigma = 0;
+  capped.distance_cap = 0.05;
+  out.push_back(capped);
   return out;
 }
 
@@ -494,27 +507,44 @@ TEST_P(SimdKernels, NlpmAgreesWithTheReference) {
 }
 
 TEST_P(SimdKernels, PoseBandSumsSquaredGeodesics) {
+  // Without a cap and with one (NlpmParams::distance_cap) that clips part of the terms: each
+  // joint's term is min(d^2, cap^2).
   const Motion m = noisy_random_motion(5, 45, 4, 0.05);
   const int search = 6;
   const std::size_t count = 30, stride = 64;  // >= count + search + 16, whole vectors
-  std::vector<float> band(std::size_t(search) * stride, 0.0f);
-  for (int j = 0; j < m.joints; ++j) {
-    std::vector<float> planes(4 * stride, 0.0f);
-    std::fill_n(planes.begin(), stride, 1.0f);
-    for (std::size_t t = 0; t < count + std::size_t(search); ++t)
-      for (std::size_t c = 0; c < 4; ++c) planes[c * stride + t] = m.view().at(int(t), j)[c];
-    simd::accumulate_pose_band(planes.data(), stride, count, search, band.data());
-  }
-  for (std::size_t u = 0; u < count; ++u)
-    for (int delta = 1; delta <= search; ++delta) {
-      double expected = 0;
-      for (int j = 0; j < m.joints; ++j) {
-        const double d =
-            geodesic(load_quat(m.view().at(int(u), j)), load_quat(m.view().at(int(u) + delta, j)));
-        expected += d * d;
-      }
-      EXPECT_NEAR(band[std::size_t(delta - 1) * stride + u], expected, 1e-6 * expected + 1e-12);
+  for (const double cap : {0.0, 0.3}) {
+    const float cap_squared = cap > 0 ? float(cap * cap) : kNoCap;
+    std::vector<float> band(std::size_t(search) * stride, 0.0f);
+    for (int j = 0; j < m.joints; ++j) {
+      std::vector<float> planes(4 * stride, 0.0f);
+      std::fill_n(planes.begin(), stride, 1.0f);
+      for (std::size_t t = 0; t < count + std::size_t(search); ++t)
+        for (std::size_t c = 0; c < 4; ++c) planes[c * stride + t] = m.view().at(int(t), j)[c];
+      simd::accumulate_pose_band(planes.data(), stride, count, search, cap_squared, band.data());
     }
+    long capped = 0, uncapped = 0;
+    for (std::size_t u = 0; u < count; ++u)
+      for (int delta = 1; delta <= search; ++delta) {
+        double expected = 0;
+        for (int j = 0; j < m.joints; ++j) {
+          const double d = geodesic(load_quat(m.view().at(int(u), j)),
+                                    load_quat(m.view().at(int(u) + delta, j)));
+          if (cap > 0 && d > cap) {
+            expected += cap * cap;
+            ++capped;
+          } else {
+            expected += d * d;
+            ++uncapped;
+          }
+        }
+        EXPECT_NEAR(band[std::size_t(delta - 1) * stride + u], expected, 1e-6 * expected + 1e-12)
+            << "cap " << cap;
+      }
+    if (cap > 0) {  // not vacuous: the cap clipped some terms and left others
+      EXPECT_GT(capped, 0);
+      EXPECT_GT(uncapped, 0);
+    }
+  }
 }
 
 // Runs `run(slice)` for the full clip and for slices covering it, and checks every sample of the
