@@ -33,11 +33,17 @@ Status LinearParams::validate() const {
         return Status::error(format("butterworth order must be in [1, 8], got %d", order));
       if (!(cutoff > 0) || !std::isfinite(cutoff))
         return Status::error(format("cutoff must be > 0 Hz, got %g", cutoff));
+      for (std::size_t j = 0; j < joint_cutoffs.size(); ++j)
+        if (!(joint_cutoffs[j] > 0) || !std::isfinite(joint_cutoffs[j]))
+          return Status::error(
+              format("joint_cutoffs[%zu] must be > 0 Hz, got %g", j, joint_cutoffs[j]));
       break;
     case LinearKind::moving_mean:
       if (passes < 1) return Status::error(format("passes must be >= 1, got %d", passes));
       break;
   }
+  if (kind != LinearKind::butterworth && !joint_cutoffs.empty())
+    return Status::error("joint_cutoffs are a butterworth parameter");
   switch (boundary) {
     case Boundary::mirror:
     case Boundary::hold:
@@ -82,6 +88,15 @@ Status LinearFilterJob::validate() const {
   if (params.kind == LinearKind::butterworth) {
     const MaskResult mask = linear_mask(params, io.frame_time);
     if (!mask.error.empty()) return Status::error(mask.error);
+    if (!params.joint_cutoffs.empty()) {
+      if (params.joint_cutoffs.size() != std::size_t(io.rotations.joints))
+        return Status::error(format("joint_cutoffs has %zu entries for %d joints",
+                                    params.joint_cutoffs.size(), io.rotations.joints));
+      for (double cutoff : params.joint_cutoffs)
+        if (const std::string e = butterworth_mask_error(params.order, cutoff, 1.0 / io.frame_time);
+            !e.empty())
+          return Status::error(e);
+    }
   }
   return {};
 }
@@ -92,13 +107,32 @@ Status LinearFilterJob::run() const {
   if (!mask.error.empty()) return Status::error(mask.error);
   const int passes = linear_passes(params);
 
-  if (implementation == Implementation::fast)
-    simd::lee_shin_rotations(mask.mask, passes, params.boundary, io);
-  else
-    filter_each_rotation_curve(io, [&](const auto& curve, auto& out, int begin, int end,
-                                       CurveScratch& scratch) {
-      linear_filter_rotations(curve, mask.mask, passes, params.boundary, out, begin, end, scratch);
-    });
+  const auto rotations = [&](const MotionIO& slice, std::span<const double> m) {
+    if (implementation == Implementation::fast)
+      simd::lee_shin_rotations(m, passes, params.boundary, slice);
+    else
+      filter_each_rotation_curve(
+          slice, [&](const auto& curve, auto& out, int begin, int end, CurveScratch& scratch) {
+            linear_filter_rotations(curve, m, passes, params.boundary, out, begin, end, scratch);
+          });
+  };
+  if (params.joint_cutoffs.empty()) {
+    rotations(io, mask.mask);
+  } else {
+    // Joint by joint, each with its own mask (neighbours often share a cut-off: kept).
+    MotionIO slice = io;
+    LinearParams joint = params;
+    MaskResult joint_mask;
+    for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
+      if (joint_mask.mask.empty() || joint.cutoff != params.joint_cutoffs[std::size_t(j)]) {
+        joint.cutoff = params.joint_cutoffs[std::size_t(j)];
+        joint_mask = linear_mask(joint, io.frame_time);
+      }
+      slice.joint_begin = j;
+      slice.joint_end = j + 1;
+      rotations(slice, joint_mask.mask);
+    }
+  }
   filter_each_translation_path(io, [&](const auto& path, auto& out, int begin, int end,
                                        CurveScratch& scratch) {
     linear_filter_translations(path, mask.mask, passes, params.boundary, out, begin, end, scratch);

@@ -3,6 +3,7 @@
 // (gaussian, butterworth, moving-mean), as a job over a clip; translations of the joints that
 // carry them get the same mask (spec "Translations").
 #include <span>
+#include <vector>
 
 #include "core/status.hpp"
 #include "kernels/boundary.hpp"
@@ -19,11 +20,15 @@ struct LinearParams {
   int window = 0;        // gaussian: reach k; 0 = ceil(3 sigma_t)
   int order = 2;         // butterworth: order n, in [1, 8]
   double cutoff = 6.0;   // butterworth: single-pass -3 dB cut-off, Hz
-  int passes = 5;        // moving-mean: number of passes
+  // butterworth: empty, or one cut-off (Hz) per joint of the clip for its rotations; `cutoff`
+  // then serves the position channels only. Joints are filtered independently, so a joint's
+  // output is the same bits as with that cut-off for every joint.
+  std::vector<double> joint_cutoffs;
+  int passes = 5;  // moving-mean: number of passes
   Boundary boundary = Boundary::mirror;
 
-  // The parameters of `kind` only (the butterworth cut-off is checked against the clip's frame
-  // rate by the job).
+  // The parameters of `kind` only (the butterworth cut-offs are checked against the clip's frame
+  // rate and joint_cutoffs' size against its joints by the job).
   Status validate() const;
 };
 

@@ -112,29 +112,25 @@ std::vector<IirSection> butterworth_sections(int order, double cutoff_hz, double
   return sections;
 }
 
-MaskResult butterworth_mask(int order, double cutoff_hz, double frame_rate_hz) {
-  MaskResult result;
-  if (order < 1 || order > 8) {
-    result.error = format("butterworth order must be in [1, 8], got %d", order);
-    return result;
-  }
-  if (!(frame_rate_hz > 0) || !std::isfinite(frame_rate_hz)) {
-    result.error = format("frame rate must be > 0, got %g fps", frame_rate_hz);
-    return result;
-  }
-  if (!(cutoff_hz > 0)) {
-    result.error = format("cutoff must be > 0 Hz, got %g", cutoff_hz);
-    return result;
-  }
+std::string butterworth_mask_error(int order, double cutoff_hz, double frame_rate_hz) {
+  if (order < 1 || order > 8) return format("butterworth order must be in [1, 8], got %d", order);
+  if (!(frame_rate_hz > 0) || !std::isfinite(frame_rate_hz))
+    return format("frame rate must be > 0, got %g fps", frame_rate_hz);
+  if (!(cutoff_hz > 0)) return format("cutoff must be > 0 Hz, got %g", cutoff_hz);
   // Closer to Nyquist the poles approach the unit circle and the response never decays.
   const double limit = 0.95 * frame_rate_hz / 2;
-  if (!(cutoff_hz < limit)) {
-    result.error = format(
+  if (!(cutoff_hz < limit))
+    return format(
         "cutoff %g Hz is too close to the Nyquist frequency of this clip's %.2f fps (must be "
         "below %.6g Hz)",
         cutoff_hz, frame_rate_hz, limit);
-    return result;
-  }
+  return {};
+}
+
+MaskResult butterworth_mask(int order, double cutoff_hz, double frame_rate_hz) {
+  MaskResult result;
+  result.error = butterworth_mask_error(order, cutoff_hz, frame_rate_hz);
+  if (!result.error.empty()) return result;
   const std::vector<IirSection> sections = butterworth_sections(order, cutoff_hz, frame_rate_hz);
 
   // Single-pass impulse response h, run until it has decayed below 1e-18 of its peak for long

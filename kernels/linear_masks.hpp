@@ -47,5 +47,7 @@ struct MaskResult {
 // |h_zp| >= 1e-6 of the peak, renormalised to sum 1. Errors: order outside [1, 8], cutoff <= 0,
 // or cutoff >= 0.95 times the Nyquist frequency of frame_rate_hz (named in the message).
 MaskResult butterworth_mask(int order, double cutoff_hz, double frame_rate_hz);
+// What butterworth_mask would refuse, without designing the mask ("" = nothing).
+std::string butterworth_mask_error(int order, double cutoff_hz, double frame_rate_hz);
 
 }  // namespace mocap

@@ -7,6 +7,7 @@
 #include "engine/clip/flip_pieces.hpp"
 #include "engine/clip/methods.hpp"
 #include "kernels/foot_contacts.hpp"
+#include "kernels/joint_motion.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/noise_estimate.hpp"
@@ -92,6 +93,40 @@ double automatic_cutoff(double sigma_hat, double frame_time) {
   if (sigma_hat > 0) cutoff *= std::pow(kAutoCutoffSigma / sigma_hat, 1.0 / 6.0);
   const double highest = kAutoCutoffMaxNyquist * rate / 2;  // below 2.5 fps, under the floor
   return std::clamp(cutoff, std::min(kAutoCutoffMinHz, highest), highest);
+}
+
+int joint_cutoff_lag(double frame_time) {
+  return std::max(1, int(std::lround(1.0 / (30.0 * frame_time))));
+}
+
+std::vector<std::uint8_t> leg_joints_of(std::span<const FootChain> feet, int joints) {
+  std::vector<std::uint8_t> legs(std::size_t(std::max(joints, 0)), 0);
+  for (const FootChain& f : feet)
+    for (int j : {f.hip, f.knee})
+      if (j >= 0 && j < joints) legs[std::size_t(j)] = 1;
+  return legs;
+}
+
+std::vector<double> automatic_joint_cutoffs(double cutoff, double sigma_hat,
+                                            std::span<const double> power,
+                                            std::span<const std::uint8_t> legs, double frame_time) {
+  if (!(sigma_hat > 0)) return {};
+  const double rate = 1.0 / frame_time;
+  const double highest = kAutoCutoffMaxNyquist * rate / 2;
+  const double noise = 6 * sigma_hat * sigma_hat;
+  std::vector<double> out;
+  out.reserve(power.size());
+  for (std::size_t j = 0; j < power.size(); ++j) {
+    if (j < legs.size() && legs[j]) {
+      out.push_back(cutoff);
+      continue;
+    }
+    const double snr = std::max((power[j] - noise) / noise, 0.0);
+    const double factor =
+        std::clamp(std::cbrt(snr / kAutoJointCutoffSnr), 1.0, kAutoJointCutoffMaxFactor);
+    out.push_back(std::clamp(cutoff * factor, std::min(kAutoCutoffMinHz, highest), highest));
+  }
+  return out;
 }
 
 bool has_noisy_positions(const TranslationNoise& noise, double body_height) {
@@ -200,6 +235,25 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
     if (measured.empty()) measured = classify_joints(clip.rotation_view());
     return measured;
   };
+  if (settings.split_impossible) {
+    // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
+    if (known.segments) {
+      r.segments = *known.segments;
+    } else {
+      std::vector<std::uint8_t> flipping;
+      for (const JointQuality& q : qualities())
+        flipping.push_back(q.joint_class == JointClass::flipping);
+      r.segments = motion_segments(clip.rotation_view(), clip.frame_time, flipping);
+    }
+    if (r.segments.size() <= 1) r.segments.clear();
+  }
+  context.joint_motion = [&](int lag) {
+    return lagged_acceleration_power(clip.rotation_view(), lag, r.segments);
+  };
+  const Skeleton& sk = *clip.skeleton;
+  const std::vector<std::uint8_t> legs =
+      leg_joints_of(find_feet(sk.joint_names, sk.parents, sk.offsets), clip.joints());
+  context.leg_joints = legs;
   if (asked.needs_noise(settings)) {
     std::vector<double> median_steps;
     for (const JointQuality& q : qualities()) median_steps.push_back(q.median_step);
@@ -209,6 +263,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
     r.noise_sigma = noise.sigma;
     if (noise.moving_joints == 0 || noise.sigma <= 0) {
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
+      r.segments.clear();
       return r;
     }
     context.sigma_hat = noise.sigma;
@@ -230,18 +285,6 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
       r.flip_settings = *pieces;
     else
       r.flip_joints.clear();
-  }
-  if (settings.split_impossible) {
-    // Flipping joints (uncaptured) jump by ~pi without moving: they do not cut the clip.
-    if (known.segments) {
-      r.segments = *known.segments;
-    } else {
-      std::vector<std::uint8_t> flipping;
-      for (const JointQuality& q : qualities())
-        flipping.push_back(q.joint_class == JointClass::flipping);
-      r.segments = motion_segments(clip.rotation_view(), clip.frame_time, flipping);
-    }
-    if (r.segments.size() <= 1) r.segments.clear();
   }
   return r;
 }

@@ -13,6 +13,7 @@
 #include "core/clip.hpp"
 #include "core/status.hpp"
 #include "kernels/bilateral.hpp"
+#include "kernels/foot_contacts.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/kalman.hpp"
 #include "kernels/linear_filter.hpp"
@@ -228,7 +229,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 //   otherwise:                    bof, automatic_smoothing (iterations and widths from sigma_hat
 //                                 and the frame rate)
 //   noisy positions:              butterworth of kAutoButterworthOrder, cut-off automatic_cutoff
-//                                 (from sigma_hat and the frame rate), translations too
+//                                 (from sigma_hat and the frame rate), translations too, raised
+//                                 per joint by automatic_joint_cutoffs
 // Measured with `eval` on ../shared/data/bvh (9 CMU clips, gaussian 0.008-0.24 rad, 120 fps and
 // --frame-step 4; grid over bof's iterations 1/2/3/5, sigma_g 2-8 sigma_hat, sigma_t factor
 // 7-40): the best bof has ONE iteration at 0.008 and 0.03 rad, 2-3 at 0.12, 3-5 at 0.24, and
@@ -255,6 +257,27 @@ inline constexpr double kAutoCutoffSigma = 0.02;
 inline constexpr double kAutoCutoffMinHz = 1.0;
 inline constexpr double kAutoCutoffMaxNyquist = 0.8;
 double automatic_cutoff(double sigma_hat, double frame_time);
+// Per joint, the cut-off rises with how fast the joint moves beyond its noise: one cut-off for
+// the whole body blurred the fast joints (toes, feet, hands) of a fast clip below their noisy
+// input's rotation error, while the joints that decide the joint positions (root, spine, hips)
+// move slowly and keep it. With P_j the joint's lag-L acceleration power (kernels/joint_motion.hpp,
+// L = round(fps / 30) frames so that it sees the same band at every rate) and
+// snr_j = (P_j - 6 sigma_hat^2) / (6 sigma_hat^2):
+//   f_j = f clamp((max(snr_j, 0) / kAutoJointCutoffSnr)^(1/3), 1, kAutoJointCutoffMaxFactor),
+// within automatic_cutoff's bounds; the position channels keep f, and so do the legs' hips and
+// knees (`legs`, leg_joints_of): they carry a planted foot, and raising theirs let 02_03's feet
+// skate where its short contacts went unfound. Only ever raised: the slow proximal joints' motion
+// hides under the noise (snr near 0) but is real, and a lower cut-off there moved every joint
+// below them (README "Positions", "Per-joint cut-offs").
+inline constexpr double kAutoJointCutoffSnr = 0.3;
+inline constexpr double kAutoJointCutoffMaxFactor = 3.0;
+int joint_cutoff_lag(double frame_time);  // L >= 1
+// One entry per power (empty without sigma_hat); `legs` empty or one entry per joint.
+std::vector<double> automatic_joint_cutoffs(double cutoff, double sigma_hat,
+                                            std::span<const double> power,
+                                            std::span<const std::uint8_t> legs, double frame_time);
+// 1 on each leg's hip and knee joint (kernels/foot_contacts.hpp, FootChain), 0 elsewhere.
+std::vector<std::uint8_t> leg_joints_of(std::span<const FootChain> feet, int joints);
 inline constexpr double kNoisyPositions = 0.0015;
 // Floors of auto's nlpm strength and range width. On a capture with no noise added (CMU clips:
 // sigma_hat 0.001-0.002 rad) h = 1.2 sigma_hat and a range of 5 sigma_hat are so selective that

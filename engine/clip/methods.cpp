@@ -391,6 +391,8 @@ MethodEntry butterworth_entry() {
           [](const FilterSettings& s, json& j) {
             j["order"] = s.param<LinearParams>().order;
             j["cutoff"] = s.param<LinearParams>().cutoff;
+            if (!s.param<LinearParams>().joint_cutoffs.empty())
+              j["joint_cutoffs"] = s.param<LinearParams>().joint_cutoffs;
             j["boundary"] = std::string(to_string(s.param<LinearParams>().boundary));
           },
       .needs_noise = never,
@@ -653,7 +655,9 @@ const std::vector<EvalVariant>& variants() {
        .used =
            [](const FilterSettings& s) {
              const LinearParams l = s.param<LinearParams>();
-             return json{{"cutoff", l.cutoff}, {"order", l.order}};
+             json used{{"cutoff", l.cutoff}, {"order", l.order}};
+             if (!l.joint_cutoffs.empty()) used["joint_cutoffs"] = l.joint_cutoffs;  // auto's
+             return used;
            },
        .reports = chose<Method::butterworth>},
       {.name = "moving-mean",
@@ -752,6 +756,12 @@ FilterSettings resolve_parameters(const FilterSettings& settings, const NoiseCon
   if (s.method == Method::automatic) {
     s = choose_automatic(settings, context.sigma_hat, noisy_positions, context.frame_time);
     c.automatic = true;
+    if (s.method == Method::butterworth && context.joint_motion) {
+      LinearParams& l = s.edit<LinearParams>();
+      l.joint_cutoffs = automatic_joint_cutoffs(
+          l.cutoff, context.sigma_hat, context.joint_motion(joint_cutoff_lag(context.frame_time)),
+          context.leg_joints, context.frame_time);
+    }
   }
   const MethodEntry& entry = method_entry(s.method);
   if (entry.normalize) entry.normalize(s);

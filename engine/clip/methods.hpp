@@ -30,6 +30,10 @@ struct NoiseContext {
   // The position channels' noise (estimated on first call) and the body's height (file units).
   std::function<TranslationNoise()> translation_noise;
   double body_height = 0;
+  // Each joint's lag-L acceleration power (kernels/joint_motion.hpp) over the clip's segments, for
+  // auto's per-joint cut-offs; unset: one cut-off for every joint.
+  std::function<std::vector<double>(int lag)> joint_motion;
+  std::span<const std::uint8_t> leg_joints;  // empty, or per joint: leg_joints_of
 };
 
 // One grid point of eval: named parameter values, in a fixed order; and one axis of a grid.

@@ -6,6 +6,7 @@
 #include "engine/clip/filter_settings.hpp"
 #include "engine/clip/flip_pieces.hpp"
 #include "engine/clip/methods.hpp"
+#include "kernels/joint_motion.hpp"
 #include "kernels/noise_estimate.hpp"
 
 namespace mocap::engine::eval {
@@ -56,6 +57,8 @@ Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob&
           estimate_translation_noise(job.translations, job.translated_joints, job.frame_time);
     return *translation_estimate;
   };
+  context.joint_motion = [&](int lag) { return lagged_acceleration_power(job.noisy, lag); };
+  context.leg_joints = job.leg_joints;
   const bool noisy_positions = asked->method == Method::automatic &&
                                has_noisy_positions(context.translation_noise(), job.body_height);
   const FilterSettings settings = resolve_parameters(*asked, context, noisy_positions);

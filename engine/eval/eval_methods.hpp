@@ -36,6 +36,9 @@ struct SegmentJob {
   TranslationSpan output_translations;
   std::span<const std::uint8_t> translated_joints;
   double body_height = 0;  // file units: auto's test for noisy positions
+  // Optional, one entry per joint: the legs' hips and knees (leg_joints_of), which auto's
+  // per-joint cut-offs leave at the clip's.
+  std::span<const std::uint8_t> leg_joints;
 };
 
 // Filters `job` with `method` at `point`, or automatically when point is null. A segment of one

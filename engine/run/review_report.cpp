@@ -104,7 +104,11 @@ std::string readable_parameters(const nlohmann::json& parameters) {
       text = fmt::format("{:.3g} frames", value.get<double>());
     else if (value.is_number() && key == "cutoff")
       text = fmt::format("{:.3g} Hz", value.get<double>());
-    else if (value.is_string())
+    else if (value.is_array() && !value.empty() && key == "joint_cutoffs") {  // auto's, per joint
+      const std::vector<double> cutoffs = value.get<std::vector<double>>();
+      const auto [low, high] = std::minmax_element(cutoffs.begin(), cutoffs.end());
+      text = fmt::format("{:.3g}-{:.3g} Hz", *low, *high);
+    } else if (value.is_string())
       text = value.get<std::string>();
     else
       text = value.dump();

@@ -198,6 +198,10 @@ Clip eval_run(eval::EvalMethod method, const ParamPoint* point, const Clip& inpu
   job.output_translations = out.translation_span();
   job.translated_joints = translated;
   job.body_height = body_height(*input.skeleton);
+  const Skeleton& sk = *input.skeleton;
+  const std::vector<std::uint8_t> legs =
+      leg_joints_of(find_feet(sk.joint_names, sk.parents, sk.offsets), input.joints());
+  job.leg_joints = legs;
   EXPECT_TRUE(eval::filter_segment(method, point, job, used).ok());
   return out;
 }
@@ -265,7 +269,7 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
     Method chosen;
   } clips[] = {
       {0.001, 0, Method::nlpm}, {0.05, 0, Method::bof}, {0.02, 0.004, Method::butterworth}};
-  int auto_smooth = 0, capped = 0;
+  int auto_smooth = 0, capped = 0, joint_cutoffs = 0;
   for (const auto& c : clips) {
     const Clip input = noisy_walk(c.sigma, c.position);
     for (const Case& k : cases) {
@@ -305,13 +309,20 @@ TEST(MethodTable, EvalRunsThePipelinesJobForEqualParameters) {
         EXPECT_EQ(used.at("lambda"), s.param<KalmanParams>().lambda);
       }
       if (s.method == Method::butterworth) {
-        EXPECT_EQ(used.at("order"), s.param<LinearParams>().order);
-        EXPECT_EQ(used.at("cutoff"), s.param<LinearParams>().cutoff);
+        const LinearParams& l = s.param<LinearParams>();
+        EXPECT_EQ(used.at("order"), l.order);
+        EXPECT_EQ(used.at("cutoff"), l.cutoff);
+        if (k.settings.method == Method::automatic) {  // auto's per-joint cut-offs
+          ASSERT_EQ(l.joint_cutoffs.size(), std::size_t(input.joints()));
+          EXPECT_EQ(used.at("joint_cutoffs").get<std::vector<double>>(), l.joint_cutoffs);
+          ++joint_cutoffs;
+        }
       }
     }
   }
-  EXPECT_EQ(auto_smooth, 1);  // the noisy positions branch was reached, and only there
-  EXPECT_EQ(capped, 1);       // auto's nlpm alone caps the pose distance
+  EXPECT_EQ(auto_smooth, 1);    // the noisy positions branch was reached, and only there
+  EXPECT_EQ(capped, 1);         // auto's nlpm alone caps the pose distance
+  EXPECT_EQ(joint_cutoffs, 1);  // and its low-pass alone has per-joint cut-offs
 }
 
 }  // namespace
