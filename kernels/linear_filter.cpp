@@ -86,17 +86,17 @@ Status LinearFilterJob::validate() const {
   if (implementation != Implementation::fast && implementation != Implementation::reference)
     return Status::error("unknown implementation");
   if (params.kind == LinearKind::butterworth) {
-    const MaskResult mask = linear_mask(params, io.frame_time);
-    if (!mask.error.empty()) return Status::error(mask.error);
-    if (!params.joint_cutoffs.empty()) {
-      if (params.joint_cutoffs.size() != std::size_t(io.rotations.joints))
-        return Status::error(format("joint_cutoffs has %zu entries for %d joints",
-                                    params.joint_cutoffs.size(), io.rotations.joints));
-      for (double cutoff : params.joint_cutoffs)
-        if (const std::string e = butterworth_mask_error(params.order, cutoff, 1.0 / io.frame_time);
-            !e.empty())
-          return Status::error(e);
-    }
+    // Each cut-off against the clip's frame rate, without designing the masks.
+    const double rate = 1.0 / io.frame_time;
+    if (const std::string e = butterworth_mask_error(params.order, params.cutoff, rate); !e.empty())
+      return Status::error(e);
+    if (!params.joint_cutoffs.empty() &&
+        params.joint_cutoffs.size() != std::size_t(io.rotations.joints))
+      return Status::error(format("joint_cutoffs has %zu entries for %d joints",
+                                  params.joint_cutoffs.size(), io.rotations.joints));
+    for (double cutoff : params.joint_cutoffs)
+      if (const std::string e = butterworth_mask_error(params.order, cutoff, rate); !e.empty())
+        return Status::error(e);
   }
   return {};
 }
@@ -119,18 +119,14 @@ Status LinearFilterJob::run() const {
   if (params.joint_cutoffs.empty()) {
     rotations(io, mask.mask);
   } else {
-    // Joint by joint, each with its own mask (neighbours often share a cut-off: kept).
+    // Joint by joint, each with its own mask (validated above).
     MotionIO slice = io;
-    LinearParams joint = params;
-    MaskResult joint_mask;
     for (int j = io.joint_begin; j < io.joint_stop(); ++j) {
-      if (joint_mask.mask.empty() || joint.cutoff != params.joint_cutoffs[std::size_t(j)]) {
-        joint.cutoff = params.joint_cutoffs[std::size_t(j)];
-        joint_mask = linear_mask(joint, io.frame_time);
-      }
       slice.joint_begin = j;
       slice.joint_end = j + 1;
-      rotations(slice, joint_mask.mask);
+      rotations(slice, butterworth_mask(params.order, params.joint_cutoffs[std::size_t(j)],
+                                        1.0 / io.frame_time)
+                           .mask);
     }
   }
   filter_each_translation_path(io, [&](const auto& path, auto& out, int begin, int end,

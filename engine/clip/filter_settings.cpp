@@ -87,12 +87,21 @@ BilateralParams automatic_smoothing(double sigma_hat, double frame_time) {
   return p;
 }
 
+namespace {
+
+// [kAutoCutoffMinHz, kAutoCutoffMaxNyquist x Nyquist]; below 2.5 fps the ceiling wins.
+double within_cutoff_bounds(double cutoff, double frame_time) {
+  const double highest = kAutoCutoffMaxNyquist * (1.0 / frame_time) / 2;
+  return std::clamp(cutoff, std::min(kAutoCutoffMinHz, highest), highest);
+}
+
+}  // namespace
+
 double automatic_cutoff(double sigma_hat, double frame_time) {
   const double rate = 1.0 / frame_time;
   double cutoff = kAutoCutoffHz * std::pow(rate / 30.0, 1.0 / 6.0);
   if (sigma_hat > 0) cutoff *= std::pow(kAutoCutoffSigma / sigma_hat, 1.0 / 6.0);
-  const double highest = kAutoCutoffMaxNyquist * rate / 2;  // below 2.5 fps, under the floor
-  return std::clamp(cutoff, std::min(kAutoCutoffMinHz, highest), highest);
+  return within_cutoff_bounds(cutoff, frame_time);
 }
 
 int joint_cutoff_lag(double frame_time) {
@@ -111,8 +120,6 @@ std::vector<double> automatic_joint_cutoffs(double cutoff, double sigma_hat,
                                             std::span<const double> power,
                                             std::span<const std::uint8_t> legs, double frame_time) {
   if (!(sigma_hat > 0)) return {};
-  const double rate = 1.0 / frame_time;
-  const double highest = kAutoCutoffMaxNyquist * rate / 2;
   const double noise = 6 * sigma_hat * sigma_hat;
   std::vector<double> out;
   out.reserve(power.size());
@@ -124,7 +131,7 @@ std::vector<double> automatic_joint_cutoffs(double cutoff, double sigma_hat,
     const double snr = std::max((power[j] - noise) / noise, 0.0);
     const double factor =
         std::clamp(std::cbrt(snr / kAutoJointCutoffSnr), 1.0, kAutoJointCutoffMaxFactor);
-    out.push_back(std::clamp(cutoff * factor, std::min(kAutoCutoffMinHz, highest), highest));
+    out.push_back(within_cutoff_bounds(cutoff * factor, frame_time));
   }
   return out;
 }
@@ -250,10 +257,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
   context.joint_motion = [&](int lag) {
     return lagged_acceleration_power(clip.rotation_view(), lag, r.segments);
   };
-  const Skeleton& sk = *clip.skeleton;
-  const std::vector<std::uint8_t> legs =
-      leg_joints_of(find_feet(sk.joint_names, sk.parents, sk.offsets), clip.joints());
-  context.leg_joints = legs;
+  context.skeleton = clip.skeleton.get();
   if (asked.needs_noise(settings)) {
     std::vector<double> median_steps;
     for (const JointQuality& q : qualities()) median_steps.push_back(q.median_step);

@@ -757,10 +757,14 @@ FilterSettings resolve_parameters(const FilterSettings& settings, const NoiseCon
     s = choose_automatic(settings, context.sigma_hat, noisy_positions, context.frame_time);
     c.automatic = true;
     if (s.method == Method::butterworth && context.joint_motion) {
+      const std::vector<double> power = context.joint_motion(joint_cutoff_lag(context.frame_time));
+      std::vector<std::uint8_t> legs;
+      if (const Skeleton* sk = context.skeleton)
+        legs =
+            leg_joints_of(find_feet(sk->joint_names, sk->parents, sk->offsets), int(power.size()));
       LinearParams& l = s.edit<LinearParams>();
-      l.joint_cutoffs = automatic_joint_cutoffs(
-          l.cutoff, context.sigma_hat, context.joint_motion(joint_cutoff_lag(context.frame_time)),
-          context.leg_joints, context.frame_time);
+      l.joint_cutoffs =
+          automatic_joint_cutoffs(l.cutoff, context.sigma_hat, power, legs, context.frame_time);
     }
   }
   const MethodEntry& entry = method_entry(s.method);

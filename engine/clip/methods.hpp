@@ -33,7 +33,9 @@ struct NoiseContext {
   // Each joint's lag-L acceleration power (kernels/joint_motion.hpp) over the clip's segments, for
   // auto's per-joint cut-offs; unset: one cut-off for every joint.
   std::function<std::vector<double>(int lag)> joint_motion;
-  std::span<const std::uint8_t> leg_joints;  // empty, or per joint: leg_joints_of
+  // The clip's skeleton, whose legs' hips and knees keep the clip's cut-off (leg_joints_of);
+  // null: no joint is kept.
+  const Skeleton* skeleton = nullptr;
 };
 
 // One grid point of eval: named parameter values, in a fixed order; and one axis of a grid.

@@ -58,7 +58,7 @@ Status run_variant(EvalMethod method, const ParamPoint* point, const SegmentJob&
     return *translation_estimate;
   };
   context.joint_motion = [&](int lag) { return lagged_acceleration_power(job.noisy, lag); };
-  context.leg_joints = job.leg_joints;
+  context.skeleton = job.skeleton;
   const bool noisy_positions = asked->method == Method::automatic &&
                                has_noisy_positions(context.translation_noise(), job.body_height);
   const FilterSettings settings = resolve_parameters(*asked, context, noisy_positions);

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <span>
 
+#include "core/skeleton.hpp"
 #include "core/status.hpp"
 #include "core/tensor.hpp"
 #include "engine/eval/eval_spec.hpp"
@@ -36,9 +37,9 @@ struct SegmentJob {
   TranslationSpan output_translations;
   std::span<const std::uint8_t> translated_joints;
   double body_height = 0;  // file units: auto's test for noisy positions
-  // Optional, one entry per joint: the legs' hips and knees (leg_joints_of), which auto's
-  // per-joint cut-offs leave at the clip's.
-  std::span<const std::uint8_t> leg_joints;
+  // Optional: the clip's skeleton, whose legs' hips and knees auto's per-joint cut-offs leave at
+  // the clip's (leg_joints_of).
+  const Skeleton* skeleton = nullptr;
 };
 
 // Filters `job` with `method` at `point`, or automatically when point is null. A segment of one

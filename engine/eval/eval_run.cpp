@@ -134,7 +134,6 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
   out.resize(input.size());
   out_translations.resize(noisy.translations.size());
   const std::vector<std::uint8_t> translated = clip.clean.skeleton->translated_mask();
-  const std::vector<std::uint8_t> legs = leg_joints_of(clip.geometry.feet, joints);
   if (resolved) *resolved = nlohmann::json::array();
   for (std::size_t s = 0; s < clip.segments.size(); ++s) {
     const Segment& seg = clip.segments[s];
@@ -148,7 +147,7 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
     job.translations = {noisy.translations.data() + at, seg.frames(), joints};
     job.output_translations = {out_translations.data() + at, seg.frames(), joints};
     job.translated_joints = translated;
-    job.leg_joints = legs;
+    job.skeleton = clip.clean.skeleton.get();
     if (any_garbage) {
       job.kept_joints = noisy.garbage;
       job.distance_joints = distance;

@@ -198,10 +198,7 @@ Clip eval_run(eval::EvalMethod method, const ParamPoint* point, const Clip& inpu
   job.output_translations = out.translation_span();
   job.translated_joints = translated;
   job.body_height = body_height(*input.skeleton);
-  const Skeleton& sk = *input.skeleton;
-  const std::vector<std::uint8_t> legs =
-      leg_joints_of(find_feet(sk.joint_names, sk.parents, sk.offsets), input.joints());
-  job.leg_joints = legs;
+  job.skeleton = input.skeleton.get();
   EXPECT_TRUE(eval::filter_segment(method, point, job, used).ok());
   return out;
 }
