@@ -17,6 +17,7 @@
 #include "kernels/noise_model.hpp"
 #include "kernels/pop_detour.hpp"
 #include "kernels/pop_repair.hpp"
+#include "kernels/pop_screen.hpp"
 #include "kernels/simd/band_geodesics.hpp"
 #include "kernels/simd/quat_batch.hpp"
 
@@ -118,6 +119,29 @@ BENCHMARK(BM_PopRepair)
     ->Args({0, 31, 1000, 0})
     ->Args({1, 31, 1000, 0})
     ->Args({1, 31, 1000, 1})
+    ->Unit(benchmark::kMillisecond);
+
+// The pop screen's bound alone (kernels/pop_screen.hpp), every joint of the same motion: the part
+// of the pop stage that every sample pays.
+void BM_PopScreenBounds(benchmark::State& state) {
+  Fixture f(int(state.range(2)), int(state.range(1)));
+  const PopScreen screen{PopRepairParams{}};
+  std::vector<std::vector<Quat>> curves(std::size_t(f.joints));
+  for (int j = 0; j < f.joints; ++j)
+    for (int t = 0; t < f.frames; ++t)
+      curves[std::size_t(j)].push_back(load_quat(f.io.rotations.at(t, j)));
+  std::vector<double> bounds(std::size_t(f.frames));
+  for (auto _ : state) {
+    for (const std::vector<Quat>& curve : curves)
+      pop_residual_bounds(curve, screen, bounds, implementation_of(state));
+    benchmark::DoNotOptimize(bounds.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_PopScreenBounds)
+    ->ArgNames({"fast", "J", "F"})
+    ->Args({0, 31, 1000})
+    ->Args({1, 31, 1000})
     ->Unit(benchmark::kMillisecond);
 
 // The detour test of a pop (the low-rate pop stage's second test, kernels/pop_detour.hpp) on the

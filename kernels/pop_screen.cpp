@@ -25,7 +25,10 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
       if (o >= block.x && o <= block.y) continue;  // left out
       weights[i] = std::abs(m.m00 + m.m01 * o + m.m02 * o * o);
     }
-    block_weights.push_back(std::move(weights));
+    // A block whose weights another already has adds nothing to the maximum (candidates that
+    // differ only in t's own place in the block leave out the same neighbours).
+    if (std::find(block_weights.begin(), block_weights.end(), weights) == block_weights.end())
+      block_weights.push_back(std::move(weights));
   }
   // The least-squares quadratic of all 2 window() points: (X^T X)^-1 X^T by cofactors.
   double s[5] = {};

@@ -53,7 +53,8 @@ inline constexpr double kPopScreenMaxSine = 0.9;  // sigma of a neighbour beyond
 struct PopScreen {
   int window = 0;
   std::vector<double> offsets;  // the 2 window() neighbours' offsets o_i, -window..window but 0
-  std::vector<std::vector<double>> block_weights;  // |w_ki| of each tier-0 candidate k
+  // |w_ki| of each tier-0 candidate k, each distinct row once (28 of 35 for the defaults).
+  std::vector<std::vector<double>> block_weights;
   std::vector<double> fit[3];  // p's coefficient k = sum_i fit[k][i] c_i (least squares)
   bool usable = false;  // false: a tier-0 candidate with a negative leverage (never on doubles)
 

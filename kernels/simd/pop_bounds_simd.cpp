@@ -16,140 +16,192 @@ HWY_BEFORE_NAMESPACE();
 namespace mocap::simd::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+// The neighbour terms of one pair of samples (u, u + o), o > 0, for lanes of consecutive u: the
+// cheap point 2x of conj(q_u) q_{u+o} on w >= 0 (pop_screen.hpp, step 2), its Log bound delta and
+// whether it is within the chart's reach (1) or not (0). The pair seen from u + o is the
+// conjugate: the same w, delta and reach, the point negated; so each pair is computed once for
+// the two samples it serves.
+struct PairPlanes {
+  double *x, *y, *z, *delta, *near;
+};
+
+template <class D>
+HWY_INLINE void PairTerms(D d, const double* pw, const double* px, const double* py,
+                          const double* pz, std::size_t u, std::size_t o, const PairPlanes& out,
+                          std::size_t k) {
+  using V = hn::Vec<D>;
+  const V zero = hn::Zero(d), two = hn::Set(d, 2.0), one = hn::Set(d, 1.0),
+          third = hn::Set(d, 1.0 / 3.0), max_sine = hn::Set(d, kPopScreenMaxSine);
+  const V aw = hn::LoadU(d, pw + u), ax = hn::Neg(hn::LoadU(d, px + u)),
+          ay = hn::Neg(hn::LoadU(d, py + u)), az = hn::Neg(hn::LoadU(d, pz + u));
+  const std::size_t v = u + o;
+  const V bw = hn::LoadU(d, pw + v), bx = hn::LoadU(d, px + v), by = hn::LoadU(d, py + v),
+          bz = hn::LoadU(d, pz + v);
+  const V w =
+      hn::Sub(hn::Sub(hn::Sub(hn::Mul(aw, bw), hn::Mul(ax, bx)), hn::Mul(ay, by)), hn::Mul(az, bz));
+  V x =
+      hn::Sub(hn::Add(hn::Add(hn::Mul(aw, bx), hn::Mul(ax, bw)), hn::Mul(ay, bz)), hn::Mul(az, by));
+  V y =
+      hn::Add(hn::Add(hn::Sub(hn::Mul(aw, by), hn::Mul(ax, bz)), hn::Mul(ay, bw)), hn::Mul(az, bx));
+  V z =
+      hn::Add(hn::Sub(hn::Add(hn::Mul(aw, bz), hn::Mul(ax, by)), hn::Mul(ay, bx)), hn::Mul(az, bw));
+  const auto flip = hn::Lt(w, zero);
+  x = hn::IfThenElse(flip, hn::Neg(x), x);
+  y = hn::IfThenElse(flip, hn::Neg(y), y);
+  z = hn::IfThenElse(flip, hn::Neg(z), z);
+  const V s2 = hn::Add(hn::Add(hn::Mul(x, x), hn::Mul(y, y)), hn::Mul(z, z));
+  // With n = |u| and r = 1 / (n w^2) (one division): 1 / n = w^2 r, and since 1 - sigma^2 =
+  // w^2 / n^2, sigma^3 / (3 (1 - sigma^2)) = s^3 r / 3. Where w = 0 (sigma = 1, beyond reach) r
+  // is infinite and sigma NaN: the comparison below is false, and the sample is not bounded.
+  const V w2 = hn::Mul(w, w), s = hn::Sqrt(s2), length = hn::Sqrt(hn::Add(w2, s2));
+  const V r = hn::Div(one, hn::Mul(length, w2));
+  const V inverse_length = hn::Mul(w2, r);
+  const V series = hn::Mul(hn::Mul(hn::Mul(s2, s), third), r);
+  const V scale = hn::Abs(hn::Sub(inverse_length, one));
+  const V sine = hn::Mul(s, inverse_length);
+  hn::StoreU(hn::Mul(two, x), d, out.x + k);
+  hn::StoreU(hn::Mul(two, y), d, out.y + k);
+  hn::StoreU(hn::Mul(two, z), d, out.z + k);
+  hn::StoreU(hn::Add(series, hn::Mul(hn::Mul(two, s), scale)), d, out.delta + k);
+  hn::StoreU(hn::IfThenElseZero(hn::Le(sine, max_sine), one), d, out.near + k);
+}
+
+// The weighted sums of N blocks at once over the rows r_i, and their maximum with `worst`:
+// N independent chains of fused multiply-adds instead of one (the chain's latency was most of
+// this kernel's time).
+template <std::size_t N, class D>
+HWY_INLINE hn::Vec<D> WorstOf(D d, const std::vector<std::vector<double>>& blocks, std::size_t b,
+                              const double* rows, std::size_t n, std::size_t lanes,
+                              hn::Vec<D> worst) {
+  using V = hn::Vec<D>;
+  V sum[N];
+  const double* w[N];
+  for (std::size_t k = 0; k < N; ++k) {
+    sum[k] = hn::Zero(d);
+    w[k] = blocks[b + k].data();
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const V r = hn::LoadU(d, rows + i * lanes);
+    for (std::size_t k = 0; k < N; ++k) sum[k] = hn::MulAdd(hn::Set(d, w[k][i]), r, sum[k]);
+  }
+  for (std::size_t k = 0; k < N; ++k) worst = hn::Max(worst, sum[k]);
+  return worst;
+}
+
 void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
                        std::span<double> bounds) {
   const hn::ScalableTag<double> d;
   using V = hn::Vec<decltype(d)>;
   const std::size_t lanes = hn::Lanes(d);
   const int frames = int(curve.size()), window = screen.window;
-  const std::size_t n = screen.offsets.size();
-  // The curve as planes, so that the neighbours at offset o of `lanes` samples are one load.
-  std::vector<double> planes(4 * curve.size());
-  double* const pw = planes.data();
-  double* const px = pw + curve.size();
-  double* const py = px + curve.size();
-  double* const pz = py + curve.size();
-  for (std::size_t t = 0; t < curve.size(); ++t) {
-    pw[t] = curve[t].w;
-    px[t] = curve[t].x;
-    py[t] = curve[t].y;
-    pz[t] = curve[t].z;
-  }
+  const std::size_t n = screen.offsets.size(), W = std::size_t(window);
   std::fill(bounds.begin(), bounds.end(), std::numeric_limits<double>::infinity());
-  // The cheap points and their deltas per neighbour, as unaligned rows of `lanes` (a std::vector
-  // of vectors would not be aligned for them).
+  // The samples the lanes take: [window, end), whole groups of `lanes`.
+  const std::size_t whole = frames > 2 * window ? std::size_t(frames - 2 * window) : 0;
+  const std::size_t end = W + whole / lanes * lanes;
+  // The curve as planes, so that the neighbours at offset o of `lanes` samples are one load;
+  // `lanes` more samples (copies of the last) for the pair groups that pass the last sample.
+  const std::size_t length = curve.size() + lanes;
+  std::vector<double> planes(4 * length);
+  double* const pw = planes.data();
+  double* const px = pw + length;
+  double* const py = px + length;
+  double* const pz = py + length;
+  for (std::size_t t = 0; t < length && !curve.empty(); ++t) {
+    const Quat& q = curve[std::min(t, curve.size() - 1)];
+    pw[t] = q.w;
+    px[t] = q.x;
+    py[t] = q.y;
+    pz[t] = q.z;
+  }
+  // Chunks of samples [c0, c1); their pairs (u, u + o) for u in [c0 - window, c1), o = 1..window,
+  // as five planes per o of `span` entries (a chunk keeps them in the L1 and L2 caches).
+  constexpr std::size_t kChunk = 256;
+  const std::size_t span = kChunk + W + lanes;
+  std::vector<double> pairs(5 * W * span);
+  const auto pair_planes = [&](std::size_t o) {  // o = 1..window
+    double* const base = pairs.data() + 5 * (o - 1) * span;
+    return PairPlanes{base, base + span, base + 2 * span, base + 3 * span, base + 4 * span};
+  };
+  // The rows of one group of samples: the cheap points c_i (3), then the bounds on |v_i - p(o_i)|.
   std::vector<double> rows(4 * n * lanes);
   const auto row = [&](int plane, std::size_t i) { return rows.data() + (plane * n + i) * lanes; };
-  const V zero = hn::Zero(d), two = hn::Set(d, 2.0), one = hn::Set(d, 1.0),
-          third = hn::Set(d, 1.0 / 3.0), max_sine = hn::Set(d, kPopScreenMaxSine),
-          none = hn::Set(d, std::numeric_limits<double>::infinity()),
-          margin = hn::Set(d, kPopScreenMargin);
-  int t = window;
-  for (; t + int(lanes) - 1 + window < frames; t += int(lanes)) {
-    // The chart's cheap points: 2x of conj(q_t) q_u taken with w >= 0 (pop_screen.hpp, step 2).
-    const V aw = hn::LoadU(d, pw + t), ax = hn::Neg(hn::LoadU(d, px + t)),
-            ay = hn::Neg(hn::LoadU(d, py + t)), az = hn::Neg(hn::LoadU(d, pz + t));
-    auto bounded = hn::Eq(zero, zero);
-    for (std::size_t i = 0; i < n; ++i) {
-      const int u = t + int(screen.offsets[i]);
-      const V bw = hn::LoadU(d, pw + u), bx = hn::LoadU(d, px + u), by = hn::LoadU(d, py + u),
-              bz = hn::LoadU(d, pz + u);
-      const V w = hn::Sub(hn::Sub(hn::Sub(hn::Mul(aw, bw), hn::Mul(ax, bx)), hn::Mul(ay, by)),
-                          hn::Mul(az, bz));
-      V x = hn::Sub(hn::Add(hn::Add(hn::Mul(aw, bx), hn::Mul(ax, bw)), hn::Mul(ay, bz)),
-                    hn::Mul(az, by));
-      V y = hn::Add(hn::Add(hn::Sub(hn::Mul(aw, by), hn::Mul(ax, bz)), hn::Mul(ay, bw)),
-                    hn::Mul(az, bx));
-      V z = hn::Add(hn::Sub(hn::Add(hn::Mul(aw, bz), hn::Mul(ax, by)), hn::Mul(ay, bx)),
-                    hn::Mul(az, bw));
-      const auto flip = hn::Lt(w, zero);
-      x = hn::IfThenElse(flip, hn::Neg(x), x);
-      y = hn::IfThenElse(flip, hn::Neg(y), y);
-      z = hn::IfThenElse(flip, hn::Neg(z), z);
-      const V s2 = hn::Add(hn::Add(hn::Mul(x, x), hn::Mul(y, y)), hn::Mul(z, z));
-      const V s = hn::Sqrt(s2), length = hn::Sqrt(hn::Add(hn::Mul(w, w), s2));
-      const V sine = hn::Div(s, length);
-      bounded = hn::And(bounded, hn::Le(sine, max_sine));
-      hn::StoreU(hn::Mul(two, x), d, row(0, i));
-      hn::StoreU(hn::Mul(two, y), d, row(1, i));
-      hn::StoreU(hn::Mul(two, z), d, row(2, i));
-      const V sine2 = hn::Mul(sine, sine);
-      const V series = hn::Div(hn::Mul(hn::Mul(sine2, sine), third), hn::Sub(one, sine2));
-      const V scale = hn::Abs(hn::Sub(hn::Div(one, length), one));
-      hn::StoreU(hn::Add(series, hn::Mul(hn::Mul(two, s), scale)), d, row(3, i));
-    }
-    // p: the least-squares quadratic of the cheap points (step 3).
-    V coefficient[3][3];
-    for (int k = 0; k < 3; ++k) {
-      V sx = zero, sy = zero, sz = zero;
+  const V zero = hn::Zero(d), none = hn::Set(d, std::numeric_limits<double>::infinity()),
+          margin = hn::Set(d, kPopScreenMargin), count = hn::Set(d, double(n));
+  const std::vector<std::vector<double>>& blocks = screen.block_weights;
+  for (std::size_t c0 = W; c0 < end; c0 += kChunk) {
+    const std::size_t c1 = std::min(end, c0 + kChunk), first = c0 - W;
+    for (std::size_t o = 1; o <= W; ++o)
+      for (std::size_t k = 0; first + k < c1; k += lanes)
+        PairTerms(d, pw, px, py, pz, first + k, o, pair_planes(o), k);
+    for (std::size_t t = c0; t < c1; t += lanes) {
+      V near = zero;
       for (std::size_t i = 0; i < n; ++i) {
-        const V f = hn::Set(d, screen.fit[k][i]);
-        sx = hn::Add(sx, hn::Mul(f, hn::LoadU(d, row(0, i))));
-        sy = hn::Add(sy, hn::Mul(f, hn::LoadU(d, row(1, i))));
-        sz = hn::Add(sz, hn::Mul(f, hn::LoadU(d, row(2, i))));
+        const double offset = screen.offsets[i];
+        const std::size_t o = std::size_t(std::abs(offset));
+        const PairPlanes p = pair_planes(o);
+        // Sample t's pair with t + o is the one from t; with t - o, the one from t - o, seen back.
+        const std::size_t k = offset > 0 ? t - first : t - o - first;
+        V x = hn::LoadU(d, p.x + k), y = hn::LoadU(d, p.y + k), z = hn::LoadU(d, p.z + k);
+        if (offset < 0) {
+          x = hn::Neg(x);
+          y = hn::Neg(y);
+          z = hn::Neg(z);
+        }
+        hn::StoreU(x, d, row(0, i));
+        hn::StoreU(y, d, row(1, i));
+        hn::StoreU(z, d, row(2, i));
+        hn::StoreU(hn::LoadU(d, p.delta + k), d, row(3, i));
+        near = hn::Add(near, hn::LoadU(d, p.near + k));
       }
-      coefficient[k][0] = sx;
-      coefficient[k][1] = sy;
-      coefficient[k][2] = sz;
-    }
-    const V intercept = hn::Sqrt(hn::Add(hn::Add(hn::Mul(coefficient[0][0], coefficient[0][0]),
-                                                 hn::Mul(coefficient[0][1], coefficient[0][1])),
-                                         hn::Mul(coefficient[0][2], coefficient[0][2])));
-    for (std::size_t i = 0; i < n; ++i) {
-      const double o = screen.offsets[i];
-      const V o1 = hn::Set(d, o), o2 = hn::Set(d, o * o);
-      V e[3];
-      const V c[3] = {hn::LoadU(d, row(0, i)), hn::LoadU(d, row(1, i)), hn::LoadU(d, row(2, i))};
-      for (int k = 0; k < 3; ++k) {
-        const V p = hn::Add(hn::Add(coefficient[0][k], hn::Mul(o1, coefficient[1][k])),
-                            hn::Mul(o2, coefficient[2][k]));
-        e[k] = hn::Sub(c[k], p);
-      }
-      const V error =
-          hn::Sqrt(hn::Add(hn::Add(hn::Mul(e[0], e[0]), hn::Mul(e[1], e[1])), hn::Mul(e[2], e[2])));
-      // Row 3 becomes the bound on |v_i - p(o_i)|.
-      hn::StoreU(hn::Add(error, hn::LoadU(d, row(3, i))), d, row(3, i));
-    }
-    // The worst block's weighted sum. Eight blocks at a time: eight independent chains of adds
-    // instead of one (the chain's latency was most of this kernel's time), each block's sum
-    // still taken over i in order and the maxima in block order (the same bits).
-    V worst = zero;
-    const std::vector<std::vector<double>>& blocks = screen.block_weights;
-    std::size_t b = 0;
-    for (; b + 8 <= blocks.size(); b += 8) {
-      const double* w[8];
-      for (int k = 0; k < 8; ++k) w[k] = blocks[b + std::size_t(k)].data();
-      V s0 = zero, s1 = zero, s2 = zero, s3 = zero, s4 = zero, s5 = zero, s6 = zero, s7 = zero;
+      // p: the least-squares quadratic of the cheap points (step 3), nine independent sums.
+      V coefficient[3][3];
+      for (auto& c : coefficient)
+        for (V& v : c) v = zero;
       for (std::size_t i = 0; i < n; ++i) {
-        const V r = hn::LoadU(d, row(3, i));
-        s0 = hn::Add(s0, hn::Mul(hn::Set(d, w[0][i]), r));
-        s1 = hn::Add(s1, hn::Mul(hn::Set(d, w[1][i]), r));
-        s2 = hn::Add(s2, hn::Mul(hn::Set(d, w[2][i]), r));
-        s3 = hn::Add(s3, hn::Mul(hn::Set(d, w[3][i]), r));
-        s4 = hn::Add(s4, hn::Mul(hn::Set(d, w[4][i]), r));
-        s5 = hn::Add(s5, hn::Mul(hn::Set(d, w[5][i]), r));
-        s6 = hn::Add(s6, hn::Mul(hn::Set(d, w[6][i]), r));
-        s7 = hn::Add(s7, hn::Mul(hn::Set(d, w[7][i]), r));
+        const V c[3] = {hn::LoadU(d, row(0, i)), hn::LoadU(d, row(1, i)), hn::LoadU(d, row(2, i))};
+        for (int k = 0; k < 3; ++k) {
+          const V f = hn::Set(d, screen.fit[k][i]);
+          for (int a = 0; a < 3; ++a) coefficient[k][a] = hn::MulAdd(f, c[a], coefficient[k][a]);
+        }
       }
-      worst = hn::Max(hn::Max(hn::Max(hn::Max(worst, s0), s1), s2), s3);
-      worst = hn::Max(hn::Max(hn::Max(hn::Max(worst, s4), s5), s6), s7);
+      const V intercept =
+          hn::Sqrt(hn::MulAdd(coefficient[0][2], coefficient[0][2],
+                              hn::MulAdd(coefficient[0][1], coefficient[0][1],
+                                         hn::Mul(coefficient[0][0], coefficient[0][0]))));
+      for (std::size_t i = 0; i < n; ++i) {
+        const double o = screen.offsets[i];
+        const V o1 = hn::Set(d, o), o2 = hn::Set(d, o * o);
+        V e[3];
+        for (int k = 0; k < 3; ++k) {
+          const V p = hn::MulAdd(o2, coefficient[2][k],
+                                 hn::MulAdd(o1, coefficient[1][k], coefficient[0][k]));
+          e[k] = hn::Sub(hn::LoadU(d, row(k, i)), p);
+        }
+        const V error =
+            hn::Sqrt(hn::MulAdd(e[2], e[2], hn::MulAdd(e[1], e[1], hn::Mul(e[0], e[0]))));
+        // Row 3 becomes the bound on |v_i - p(o_i)|.
+        hn::StoreU(hn::Add(error, hn::LoadU(d, row(3, i))), d, row(3, i));
+      }
+      // The worst block's weighted sum, eight blocks at a time, then four, then one.
+      V worst = zero;
+      std::size_t b = 0;
+      for (; b + 8 <= blocks.size(); b += 8)
+        worst = WorstOf<8>(d, blocks, b, row(3, 0), n, lanes, worst);
+      for (; b + 4 <= blocks.size(); b += 4)
+        worst = WorstOf<4>(d, blocks, b, row(3, 0), n, lanes, worst);
+      for (; b < blocks.size(); ++b) worst = WorstOf<1>(d, blocks, b, row(3, 0), n, lanes, worst);
+      const V bound = hn::Add(hn::Add(intercept, worst), margin);
+      hn::StoreU(hn::IfThenElse(hn::Eq(near, count), bound, none), d, bounds.data() + t);
     }
-    for (; b < blocks.size(); ++b) {
-      V sum = zero;
-      for (std::size_t i = 0; i < n; ++i)
-        sum = hn::Add(sum, hn::Mul(hn::Set(d, blocks[b][i]), hn::LoadU(d, row(3, i))));
-      worst = hn::Max(worst, sum);
-    }
-    const V bound = hn::Add(intercept, worst);
-    hn::StoreU(hn::IfThenElse(bounded, hn::Add(bound, margin), none), d, bounds.data() + t);
   }
   // The samples left: the scalar bound, on the tail of the curve alone (the screen's window
   // reaches window() samples on each side, so a suffix starting window() earlier holds them).
-  if (t + window < frames) {
-    const std::size_t from = std::size_t(t - window);
+  if (end + W < curve.size()) {
+    const std::size_t from = end - W;
     std::vector<double> tail(curve.size() - from);
     mocap::pop_residual_bounds(curve.subspan(from), screen, tail, Implementation::reference);
-    for (std::size_t k = std::size_t(window); k < tail.size(); ++k) bounds[from + k] = tail[k];
+    for (std::size_t k = W; k < tail.size(); ++k) bounds[from + k] = tail[k];
   }
 }
 
