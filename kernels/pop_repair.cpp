@@ -289,18 +289,32 @@ int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
     bool decided = decide();
     if (!decided) {
       // The bounds above a sample's own limit (the scale at which it stops being a pop, halved)
-      // keep the upper median too high: those samples get their residuals, then decide again.
+      // keep the upper median too high, and the screened samples' zeros the lower one too low:
+      // those samples get their residuals, largest bound first, in rounds with a decision after
+      // each (the flags depend only on the scale, not on which residuals are known). A sample
+      // that is no pop needs more than half of the joint's residuals above its limit to be
+      // decided, so the first round brings the known ones to half; the largest bounds are the
+      // samples most likely to be those.
       double limit = std::numeric_limits<double>::infinity();
       for (std::size_t t : maybe)
         limit = std::min(limit, 0.5 * residuals[t] / (params.threshold * spreads[t]));
-      std::vector<std::uint8_t> more(n);
-      bool any = false;
+      std::vector<std::size_t> order;
+      std::size_t known = 0;
       for (std::size_t t = 0; t < n; ++t) {
-        more[t] = !exact[t] && bounds[t] > limit;
-        any = any || more[t];
-        exact[t] = exact[t] || more[t];
+        known += exact[t];
+        if (!exact[t] && bounds[t] > limit) order.push_back(t);
       }
-      if (any) {
+      std::stable_sort(order.begin(), order.end(),
+                       [&](std::size_t a, std::size_t b) { return bounds[a] > bounds[b]; });
+      std::vector<std::uint8_t> more(n);
+      const std::size_t step = std::max<std::size_t>(1, n / 16);
+      std::size_t first = n / 2 + 1 > known ? n / 2 + 1 - known : 0;
+      for (std::size_t done = 0; !decided && done < order.size();) {
+        const std::size_t batch = std::min(order.size() - done, std::max(step, first));
+        first = 0;
+        std::fill(more.begin(), more.end(), std::uint8_t{0});
+        for (std::size_t i = done; i < done + batch; ++i) more[order[i]] = exact[order[i]] = 1;
+        done += batch;
         compute(more);
         decided = decide();
       }
