@@ -12,6 +12,7 @@
 #include "kernels/foot_lock.hpp"
 #include "kernels/forward_kinematics.hpp"
 #include "kernels/linear_filter.hpp"
+#include "kernels/median.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
@@ -143,6 +144,22 @@ BENCHMARK(BM_PopScreenBounds)
     ->Args({0, 31, 1000})
     ->Args({1, 31, 1000})
     ->Unit(benchmark::kMillisecond);
+
+// The median as the noise estimate takes it: of the second differences' components of one joint
+// (3 (F - 2) values, gaussian), copied afresh each time. Args: implementation, values.
+void BM_Median(benchmark::State& state) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0.0, 0.01);
+  std::vector<double> sample(std::size_t(state.range(1)));
+  for (double& x : sample) x = g(rng);
+  std::vector<double> work;
+  for (auto _ : state) {
+    work = sample;
+    benchmark::DoNotOptimize(state.range(0) == 0 ? median_reference(work) : median(work));
+  }
+  state.SetItemsProcessed(state.iterations() * std::int64_t(sample.size()));
+}
+BENCHMARK(BM_Median)->ArgNames({"fast", "n"})->Args({0, 3400})->Args({1, 3400})->Args({1, 12000});
 
 // The detour test of a pop (the low-rate pop stage's second test, kernels/pop_detour.hpp) on the
 // same motion: measuring its own step angles (steps 0), or reading them from the joint

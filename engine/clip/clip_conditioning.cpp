@@ -28,7 +28,11 @@ std::size_t ClipConditioning::pop_count() const {
 }
 
 ClipFacts ClipConditioning::facts() const {
-  if (joints.empty() || segments.empty() || (repaired && pop_count() > 0)) return {};
+  if (joints.empty() || segments.empty()) return {};
+  if (repaired && pop_count() > 0) {
+    if (repaired_joints.empty()) return {};
+    return {repaired_joints, &repaired_segments};
+  }
   return {joints, &segments};
 }
 
@@ -299,6 +303,24 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
       c.pop_samples.push_back(std::int32_t(i / std::size_t(J)));
       c.pop_samples.push_back(std::int32_t(i % std::size_t(J)));
     }
+  if (c.repaired && c.pop_count() > 0) {
+    // The repair wrote only flagged samples: the other joints' classes and step angles are
+    // those of the same samples (the same bits); the changed joints are classified again, and
+    // the segments found again from the angles (as motion_segments would, on the rotations).
+    c.repaired_joints = c.joints;
+    tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
+      for (int j = range.begin(); j < range.end(); ++j)
+        if (c.pops[std::size_t(j)] > 0)
+          c.repaired_joints[std::size_t(j)] = classify_joint(
+              view, j, std::span<double>(step_angles).subspan(std::size_t(j) * steps, steps));
+    });
+    std::vector<std::uint8_t> flipping_after(static_cast<std::size_t>(J));
+    for (int j = 0; j < J; ++j)
+      flipping_after[std::size_t(j)] =
+          c.repaired_joints[std::size_t(j)].joint_class == JointClass::flipping;
+    c.repaired_segments = split_segments(
+        F, find_impossible_steps(angles, frame_time, MotionSplitParams{}, flipping_after));
+  }
   return c;
 }
 

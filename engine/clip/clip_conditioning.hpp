@@ -24,9 +24,14 @@ struct ClipConditioning {
   bool repaired = false;                  // the pops were repaired (not only counted)
   std::vector<std::int32_t> pop_samples;  // [N][2]: frame, joint of each pop, frame order
   std::vector<Segment> segments;          // the pop test's: between impossible steps
+  // After a repair that changed samples: the joints' classes and the segments of the repaired
+  // rotations, as resolve_for_clip would measure them (only the changed joints measured again).
+  std::vector<JointQuality> repaired_joints;
+  std::vector<Segment> repaired_segments;
   bool any_garbage() const;
   std::size_t pop_count() const;
-  // What resolve_for_clip may reuse: all of it when no sample was repaired, else nothing.
+  // What resolve_for_clip may reuse: the classes and segments of the rotations as they leave
+  // the conditioning (repaired or not).
   ClipFacts facts() const;
 };
 

@@ -15,6 +15,8 @@
 #include "engine/library/demo_library.hpp"
 #include "engine/run/pipeline.hpp"
 #include "io/bvh_writer.hpp"
+#include "kernels/joint_quality.hpp"
+#include "kernels/motion_split.hpp"
 #include "kernels/noise_model.hpp"
 #include "tests/test_support.hpp"
 
@@ -155,6 +157,67 @@ TEST(Conditioning, PopsOfAFlippingJointAreRepairedBetweenItsFlips) {
       EXPECT_EQ(error_at(before, clip, t, kFlipping), 0.0) << divisor << " frame " << t;
     }
   }
+}
+
+// After a repair the conditioning hands resolve_for_clip the classes and segments of the
+// repaired rotations, measuring again only the joints it changed: they must be what
+// classify_joints and motion_segments find on those rotations, to the bit, and the settings
+// resolved from them the same as from a fresh measure. At 120 fps (auto repairs) and 30 fps
+// (--pops repair); with impossible steps (a frame every joint jumps away from) and without.
+TEST(Conditioning, RepairedFactsAreThoseOfTheRepairedRotations) {
+  for (const int divisor : {1, 4})
+    for (const bool jump : {false, true}) {
+      Clip clip = test_clip(divisor, nullptr);
+      const int J = clip.joints();
+      if (jump)  // a T-pose-like frame: every joint far from its neighbours' poses
+        for (int j = 0; j < J; ++j) {
+          float* q = &clip.rotations[(std::size_t(7) * J + std::size_t(j)) * 4];
+          store_quat(load_quat(q) * exp(Vec3{1.5, 0.4, 0}), q);
+        }
+      make_hemisphere_continuous(clip.rotation_span());
+      const ClipConditioning c = engine::condition_rotations(
+          divisor == 1 ? PopsMode::automatic : PopsMode::repair, clip.rotation_span(),
+          clip.frame_time, clip.skeleton->parents);
+      const std::string what = "divisor " + std::to_string(divisor) + (jump ? ", jump" : "");
+      ASSERT_TRUE(c.repaired) << what;
+      ASSERT_GT(c.pops[kPopped], 0) << what;
+      const engine::ClipFacts facts = c.facts();
+      const std::vector<JointQuality> fresh = classify_joints(clip.rotation_view());
+      ASSERT_EQ(facts.joints.size(), fresh.size()) << what;
+      std::vector<std::uint8_t> flipping;
+      for (std::size_t j = 0; j < fresh.size(); ++j) {
+        const JointQuality &a = facts.joints[j], &b = fresh[j];
+        EXPECT_EQ(a.joint_class, b.joint_class) << what << " joint " << j;
+        EXPECT_EQ(std::memcmp(&a.median_step, &b.median_step, sizeof(double)), 0) << what;
+        EXPECT_EQ(std::memcmp(&a.max_step, &b.max_step, sizeof(double)), 0) << what;
+        EXPECT_EQ(a.near_pi_steps, b.near_pi_steps) << what;
+        flipping.push_back(b.joint_class == JointClass::flipping);
+      }
+      // The popped joint's largest step (a pop's, or the jump's) changed with the repair where
+      // the pops made it: its class was measured again.
+      if (!jump) {
+        EXPECT_NE(c.joints[kPopped].max_step, facts.joints[kPopped].max_step) << what;
+      }
+      const std::vector<Segment> segments =
+          motion_segments(clip.rotation_view(), clip.frame_time, flipping);
+      ASSERT_NE(facts.segments, nullptr) << what;
+      ASSERT_EQ(facts.segments->size(), segments.size()) << what;
+      for (std::size_t i = 0; i < segments.size(); ++i) {
+        EXPECT_EQ((*facts.segments)[i].begin, segments[i].begin) << what;
+        EXPECT_EQ((*facts.segments)[i].end, segments[i].end) << what;
+      }
+      if (jump) {
+        EXPECT_GT(segments.size(), 1u) << what;
+      }
+      FilterSettings settings;
+      settings.method = Method::automatic;
+      settings.split_impossible = true;
+      const nlohmann::json reused =
+          engine::resolve_for_clip(settings, clip, c.garbage, facts).settings.to_json();
+      const nlohmann::json measured =
+          engine::resolve_for_clip(settings, clip, c.garbage).settings.to_json();
+      EXPECT_EQ(reused, measured) << what;
+    }
 }
 
 TEST(Conditioning, RepairedPopsLandOnTheMotion) {
