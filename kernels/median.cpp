@@ -4,6 +4,8 @@
 #include <array>
 #include <memory>
 
+#include "kernels/simd/select_simd.hpp"
+
 namespace mocap {
 
 double median_reference(std::vector<double>& values) {
@@ -15,37 +17,56 @@ double median_reference(std::vector<double>& values) {
   return 0.5 * (lower + upper);
 }
 
-// Floyd and Rivest's select (1975), one round: a sorted sample of kSample values brackets the
-// median between two of its order statistics, one branch-free pass counts the values below the
-// bracket and gathers those inside it (about a third of them), and nth_element runs on those
-// alone. When the bracket misses the middle rank (improbable, or an adversarial order) the
-// reference runs instead, so the value is always exact. About 2x std::nth_element on the noise
-// estimate's samples of 1,000-4,000 values.
-double median(std::vector<double>& values) {
-  constexpr std::size_t kSample = 64, kHalfWidth = 10, kMinSize = 512;
-  const std::size_t n = values.size();
-  if (n < kMinSize) return median_reference(values);
-  const std::size_t mid = n / 2;
+namespace {
+
+// One round of Floyd and Rivest's select on from[0, count): a sorted sample brackets rank k (and
+// k - 1 when `pair`) between two of its order statistics; one pass counts the values below the
+// bracket and gathers those inside it into `to` (simd::gather_bracket). False when the bracket
+// misses a wanted rank; else count and k become those of the gathered values.
+bool select_round(const double* from, double* to, std::size_t& count, std::size_t& k, bool pair) {
+  constexpr std::size_t kSample = 64, kHalfWidth = 10;
   std::array<double, kSample> sample;
-  for (std::size_t i = 0; i < kSample; ++i) sample[i] = values[(2 * i + 1) * n / (2 * kSample)];
+  for (std::size_t i = 0; i < kSample; ++i) sample[i] = from[(2 * i + 1) * count / (2 * kSample)];
   std::sort(sample.begin(), sample.end());
   const double low = sample[kSample / 2 - kHalfWidth], high = sample[kSample / 2 + kHalfWidth];
-  const auto inside = std::make_unique_for_overwrite<double[]>(n);
-  std::size_t below = 0, count = 0;
-  for (const double x : values) {
-    below += x < low;
-    inside[count] = x;  // kept only when inside
-    count += (x >= low) & (x <= high);
+  std::size_t below = 0;
+  const std::size_t inside = simd::gather_bracket(from, count, low, high, to, below);
+  if (below > (pair ? k - 1 : k) || k >= below + inside) return false;
+  count = inside;
+  k -= below;
+  return true;
+}
+
+}  // namespace
+
+// Floyd and Rivest's select (1975): a round (select_round) keeps about a third of the values,
+// those between two order statistics of a sample that bracket the middle ranks; a second round
+// runs on those when they are still many, and nth_element finishes on what is left. When a
+// round's bracket misses a middle rank (improbable, or an adversarial order) nth_element runs on
+// that round's input, which holds the wanted ranks, so the value is always exact (speed: README
+// "Performance", mocap-microbench BM_Median).
+double median(std::vector<double>& values) {
+  constexpr std::size_t kMinSize = 512;
+  const std::size_t n = values.size();
+  if (n < kMinSize) return median_reference(values);
+  const bool even = n % 2 == 0;  // the ranks n / 2 - 1 and n / 2 are wanted
+  std::size_t count = n, k = n / 2;
+  const auto buffer = std::make_unique_for_overwrite<double[]>(n);
+  double* selected = buffer.get();
+  if (!select_round(values.data(), selected, count, k, even)) return median_reference(values);
+  // The second round gathers behind the first's values, which stay whole if it misses.
+  if (count >= kMinSize && 2 * count <= n) {
+    std::size_t count2 = count, k2 = k;
+    if (select_round(selected, selected + count, count2, k2, even)) {
+      selected += count;
+      count = count2;
+      k = k2;
+    }
   }
-  // Both middle ranks (mid - 1 too, for an even count) must fall inside the bracket.
-  const std::size_t first = n % 2 == 0 ? mid - 1 : mid;
-  if (below > first || mid >= below + count) return median_reference(values);
-  double* const b = inside.get();
-  const std::size_t k = mid - below;
-  std::nth_element(b, b + k, b + count);
-  const double upper = b[k];
-  if (n % 2 == 1) return upper;
-  const double lower = *std::max_element(b, b + k);  // k >= 1: mid - 1 >= below
+  std::nth_element(selected, selected + k, selected + count);
+  const double upper = selected[k];
+  if (!even) return upper;
+  const double lower = *std::max_element(selected, selected + k);  // k >= 1: n / 2 - 1 inside
   return 0.5 * (lower + upper);
 }
 

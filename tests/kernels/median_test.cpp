@@ -1,5 +1,5 @@
 // kernels/median.hpp: the fast select against the plain nth_element, bit for bit, on the samples
-// that reach each of its paths (small, bracketed, bracket missed) and on ties.
+// that reach each of its paths (small, one or two rounds, a round's bracket missed) and on ties.
 #include "kernels/median.hpp"
 
 #include <gtest/gtest.h>
@@ -63,6 +63,18 @@ TEST(Median, OrdersThatDefeatTheSampleStillGiveTheExactMedian) {
   std::fill(zeros_first.begin(), zeros_first.begin() + n / 2, 0.0);
   for (const auto& v : {ascending, descending, constant, sawtooth, even, trap, zeros_first})
     expect_same(v);
+  // Orders whose first round brackets well but whose gathered values (kept in order) may defeat
+  // the second round's sample: sorted blocks, and a sawtooth under a shuffled-looking ramp.
+  for (const std::size_t size : {1600u, 6000u, 6001u, 20000u})
+    for (const std::size_t period : {3u, 64u, 97u, 512u}) {
+      std::vector<double> blocks(size), ramp(size);
+      for (std::size_t i = 0; i < size; ++i) {
+        blocks[i] = double((i % period) * (size / period) + i / period);
+        ramp[i] = double(i % period) + (i * 7919 % size) * 1e-6;
+      }
+      expect_same(blocks);
+      expect_same(ramp);
+    }
 }
 
 }  // namespace
