@@ -261,13 +261,16 @@ int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
       if (exact[t] && is_pop(residuals[t], spreads[t], fit_errors[t], 0.0, params))
         maybe.push_back(t);
     if (maybe.empty()) return 0;  // no sample is a pop whatever the scale
-    // The scale lies between the medians with 0 and with the bound in place of the residuals
-    // of the screened samples (the median is monotone in each value); a sample that is a pop
-    // at the upper end is one at the true scale, one that is not at the lower end is not.
+    // The scale lies between the medians with the lower and with the upper ends of what is
+    // known of each screened sample's standardized residual in place of it ([0, bound], or the
+    // interval pop_residual_intervals gives; the median is monotone in each value); a sample
+    // that is a pop at the upper end is one at the true scale, one that is not at the lower end
+    // is not.
+    std::vector<double> lows(n, 0.0), highs(bounds);
     const auto scale_with = [&](bool upper) {
       std::vector<double> values(n);
       for (std::size_t t = 0; t < n; ++t)
-        values[t] = exact[t] ? residuals[t] / spreads[t] : upper ? bounds[t] : 0.0;
+        values[t] = exact[t] ? residuals[t] / spreads[t] : upper ? highs[t] : lows[t];
       return median(values);
     };
     const auto decide = [&]() {
@@ -287,6 +290,17 @@ int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
       return true;
     };
     bool decided = decide();
+    if (!decided) {
+      // The bounds are too loose here (a noisy joint): the screened samples get the intervals
+      // of the candidate fits on the cheap chart (kernels/pop_screen.hpp), a few times tighter,
+      // and usually decide without a fit on the Logs.
+      std::vector<std::uint8_t> tighten(n);
+      for (std::size_t t = 0; t < n; ++t) tighten[t] = !exact[t] && std::isfinite(bounds[t]);
+      pop_residual_intervals(curve, *screen, tighten, lows, highs, implementation);
+      for (std::size_t t = 0; t < n; ++t)
+        if (tighten[t]) highs[t] = std::min(highs[t], bounds[t]);
+      decided = decide();
+    }
     if (!decided) {
       // The bounds above a sample's own limit (the scale at which it stops being a pop, halved)
       // keep the upper median too high, and the screened samples' zeros the lower one too low:

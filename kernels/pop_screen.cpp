@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "kernels/simd/pop_bounds_simd.hpp"
+#include "kernels/simd/pop_intervals_simd.hpp"
 
 namespace mocap {
 
@@ -27,8 +28,10 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
     }
     // A block whose weights another already has adds nothing to the maximum (candidates that
     // differ only in t's own place in the block leave out the same neighbours).
-    if (std::find(block_weights.begin(), block_weights.end(), weights) == block_weights.end())
+    if (std::find(block_weights.begin(), block_weights.end(), weights) == block_weights.end()) {
       block_weights.push_back(std::move(weights));
+      candidates.push_back(block);
+    }
   }
   // The least-squares quadratic of all 2 window() points: (X^T X)^-1 X^T by cofactors.
   double s[5] = {};
@@ -90,6 +93,87 @@ void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
       worst = std::max(worst, sum);
     }
     bounds[std::size_t(t)] = norm(coefficient[0]) + worst + kPopScreenMargin;
+  }
+}
+
+namespace {
+
+// The cheap chart of sample t (pop_screen.hpp, step 2): points[i] = 2x and deltas[i] for each
+// neighbour; false when one is beyond the reach of the bound.
+bool cheap_chart(std::span<const Quat> curve, const PopScreen& screen, int t,
+                 std::vector<Vec3>& points, std::vector<double>& deltas) {
+  const Quat to_chart = inverse(curve[std::size_t(t)]);
+  for (std::size_t i = 0; i < screen.offsets.size(); ++i) {
+    Quat u = to_chart * curve[std::size_t(t + int(screen.offsets[i]))];
+    if (u.w < 0) u = negate(u);
+    const Vec3 x{u.x, u.y, u.z};
+    const double s = norm(x), length = std::sqrt(u.w * u.w + s * s);
+    const double sine = s / length;
+    if (!(sine <= kPopScreenMaxSine)) return false;
+    points[i] = 2.0 * x;
+    deltas[i] =
+        sine * sine * sine / (3.0 * (1.0 - sine * sine)) + 2.0 * s * std::abs(1.0 / length - 1.0);
+  }
+  return true;
+}
+
+}  // namespace
+
+void pop_residual_intervals(std::span<const Quat> curve, const PopScreen& screen,
+                            std::span<const std::uint8_t> only, std::span<double> lows,
+                            std::span<double> highs, Implementation implementation) {
+  if (implementation == Implementation::fast && screen.usable)
+    return simd::pop_residual_intervals(curve, screen, only, lows, highs);
+  const int frames = int(curve.size()), window = screen.window;
+  const std::size_t n = screen.offsets.size(), k_count = screen.candidates.size();
+  std::vector<Vec3> points(n);
+  std::vector<double> deltas(n), a(k_count), e(k_count), s_lo(k_count), s_hi(k_count);
+  for (int t = 0; t < frames; ++t) {
+    if (!only[std::size_t(t)]) continue;
+    lows[std::size_t(t)] = 0;
+    highs[std::size_t(t)] = std::numeric_limits<double>::infinity();
+    if (!screen.usable || t < window || t + window >= frames) continue;
+    if (!cheap_chart(curve, screen, t, points, deltas)) continue;
+    double delta2 = 0;
+    for (double d : deltas) delta2 += d * d;
+    const double slack = std::sqrt(delta2) + std::sqrt(kPopIntervalSse);  // Delta, rounding
+    double least_high = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0; k < k_count; ++k) {
+      const pop_detail::BlockFit& block = screen.candidates[k];
+      const pop_detail::MomentInverse& m = block.inverse;
+      // The normal equations of the points the candidate keeps: r_j = sum o^j c, vv = sum |c|^2.
+      Vec3 r[3];
+      double vv = 0;
+      e[k] = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double o = screen.offsets[i];
+        if (o >= block.x && o <= block.y) continue;
+        r[0] += points[i];
+        r[1] += o * points[i];
+        r[2] += (o * o) * points[i];
+        vv += dot(points[i], points[i]);
+        e[k] += screen.block_weights[k][i] * deltas[i];
+      }
+      const Vec3 beta0 = m.m00 * r[0] + m.m01 * r[1] + m.m02 * r[2];
+      const Vec3 beta1 = m.m01 * r[0] + m.m11 * r[1] + m.m12 * r[2];
+      const Vec3 beta2 = m.m02 * r[0] + m.m12 * r[1] + m.m22 * r[2];
+      const double sse = vv - dot(beta0, r[0]) - dot(beta1, r[1]) - dot(beta2, r[2]);
+      const double g = std::sqrt((1 + m.m00) / (block.points - 3));
+      a[k] = norm(beta0);
+      const double root = std::sqrt(std::max(0.0, sse));
+      s_lo[k] = std::max(0.0, root - slack) * g * (1 - 1e-12);
+      s_hi[k] = (root + slack) * g * (1 + 1e-12);
+      least_high = std::min(least_high, s_hi[k]);
+    }
+    double lo = std::numeric_limits<double>::infinity(), hi = 0;
+    for (std::size_t k = 0; k < k_count; ++k) {
+      if (s_lo[k] > least_high) continue;  // never the least score
+      const double spread = std::sqrt(1 + screen.candidates[k].inverse.m00);
+      lo = std::min(lo, (a[k] - e[k]) / spread);
+      hi = std::max(hi, (a[k] + e[k]) / spread);
+    }
+    lows[std::size_t(t)] = std::max(0.0, lo - kPopScreenMargin);
+    highs[std::size_t(t)] = hi + kPopScreenMargin;
   }
 }
 

@@ -37,6 +37,7 @@
 // reference's decision. When one is not, the screened samples whose bounds exceed half the
 // scale at which that sample would stop being a pop get their fits (the upper median falls),
 // and if that does not decide it either, every sample of the joint does (find_pops).
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -48,7 +49,28 @@ namespace mocap {
 
 inline constexpr double kPopScreenMargin = 1e-9;  // rad, over the fits' rounding (< 1e-11)
 inline constexpr double kPopScreenMaxSine = 0.9;  // sigma of a neighbour beyond which no bound
+inline constexpr double kPopIntervalSse = 1e-9;   // rad^2: the intervals' allowance on an sse
 
+// The intervals (pop_residual_intervals). Where the bounds leave a joint's scale open (the
+// noisiest joints: there the bounds are 3-5x the residuals, and the lower median with 0 for every
+// screened sample says nothing), each screened sample gets [lo, hi] around its standardized
+// residual residual / spread instead of [0, bound], from the candidate fits themselves run on the
+// cheap chart points c_i (no arc tangent):
+//   1. The fit of candidate k is linear in the points: a_k(v) = sum_i w_ki v_i, so with
+//      |v_i - c_i| <= delta_i, |a_k(v) - a_k(c)| <= e_k = sum_i |w_ki| delta_i.
+//   2. sqrt(sse_k) is the norm of the points' part outside the fit's span (a projection), so it
+//      moves by at most Delta = sqrt(sum_i delta_i^2) between v and c; the score's square root
+//      sqrt(sse_k (1 + leverage_k) / (points_k - 3)) lies in [S_lo(k), S_hi(k)].
+//   3. The fit the full test keeps has the least score, so it is among K = {k : S_lo(k) <=
+//      min_j S_hi(j)}, and residual / spread lies in [min over K of (|a_k(c)| - e_k) / s_k,
+//      max over K of (|a_k(c)| + e_k) / s_k], s_k = sqrt(1 + leverage_k).
+//   4. Rounding: sqrt(kPopIntervalSse) added to Delta, which covers an error of up to
+//      kPopIntervalSse / 4 in each computed sse (of the full test's fits and of these: sums of
+//      2 window() terms of at most a few hundred, so errors below 1e-12), a relative 1e-12 on
+//      the scores, kPopScreenMargin on the ends.
+// The medians with lo and with hi in place of the screened samples' values bracket the scale as
+// 0 and the bounds do (find_pops), but closely: on the 90-clip benchmark library the residuals
+// fitted fell from 239,662 to 49,710 (README "Performance").
 // The weights of the bound for one PopRepairParams (its whole window's candidate fits).
 struct PopScreen {
   int window = 0;
@@ -56,6 +78,8 @@ struct PopScreen {
   // |w_ki| of each tier-0 candidate k, each distinct row once (28 of 35 for the defaults).
   std::vector<std::vector<double>> block_weights;
   std::vector<double> fit[3];  // p's coefficient k = sum_i fit[k][i] c_i (least squares)
+  // The tier-0 candidates whose weights are in block_weights, in the same order (the intervals).
+  std::vector<pop_detail::BlockFit> candidates;
   bool usable = false;  // false: a tier-0 candidate with a negative leverage (never on doubles)
 
   explicit PopScreen(const PopRepairParams& params);
@@ -67,5 +91,14 @@ struct PopScreen {
 void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
                          std::span<double> bounds,
                          Implementation implementation = Implementation::fast);
+
+// For each sample t with only[t] != 0: lows[t] <= residual / spread <= highs[t] (pop_residuals'
+// values; the intervals above), or 0 and +infinity where the screen gives no bound (as
+// pop_residual_bounds). The others are left as they were. `fast`: simd::pop_residual_intervals
+// (kernels/simd/pop_intervals_simd.hpp), lanes of samples.
+void pop_residual_intervals(std::span<const Quat> curve, const PopScreen& screen,
+                            std::span<const std::uint8_t> only, std::span<double> lows,
+                            std::span<double> highs,
+                            Implementation implementation = Implementation::fast);
 
 }  // namespace mocap

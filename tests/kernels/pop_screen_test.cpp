@@ -49,6 +49,7 @@ Motion shared_motion(const std::filesystem::path& path, int stride) {
 
 struct Tally {
   long samples = 0, screened = 0, joints = 0, flags = 0;
+  double width = 0, value = 0;  // the intervals' widths, and the values they hold, summed
 };
 
 // The bound against the reference residuals, and find_pops with and without the screen (both
@@ -59,16 +60,35 @@ void compare_joints(const Motion& m, const PopRepairParams& params, Tally& tally
   ASSERT_TRUE(screen.usable);
   const std::size_t F = std::size_t(m.frames);
   std::vector<double> bounds(F), scalar_bounds(F), residuals(F), spreads(F), fit_errors(F);
+  std::vector<double> lows(F), highs(F), scalar_lows(F), scalar_highs(F);
+  const std::vector<std::uint8_t> all(F, 1);
   std::vector<std::uint8_t> reference(F), fast(F), screened(F), screened_reference(F);
   for (int j = 0; j < m.joints; ++j) {
     const std::vector<Quat> curve = joint_curve(m, j);
     pop_residual_bounds(curve, screen, bounds);
     pop_residual_bounds(curve, screen, scalar_bounds, Implementation::reference);
     pop_residuals(curve, params, residuals, spreads, fit_errors);
+    pop_residual_intervals(curve, screen, all, lows, highs);
+    pop_residual_intervals(curve, screen, all, scalar_lows, scalar_highs,
+                           Implementation::reference);
     for (std::size_t t = 0; t < F; ++t) {
       ASSERT_GE(bounds[t], residuals[t]) << what << " joint " << j << " frame " << t;
       ASSERT_GE(scalar_bounds[t], residuals[t]) << what << " joint " << j << " frame " << t;
       tally.screened += bounds[t] <= params.floor;
+      // The intervals hold the standardized residual, on both paths, which agree but for
+      // rounding (and give no interval at the same samples).
+      const double value = residuals[t] / spreads[t];
+      ASSERT_LE(lows[t], value) << what << " joint " << j << " frame " << t;
+      ASSERT_GE(highs[t], value) << what << " joint " << j << " frame " << t;
+      ASSERT_LE(scalar_lows[t], value) << what << " joint " << j << " frame " << t;
+      ASSERT_GE(scalar_highs[t], value) << what << " joint " << j << " frame " << t;
+      ASSERT_EQ(std::isinf(highs[t]), std::isinf(scalar_highs[t])) << what << " frame " << t;
+      if (std::isfinite(highs[t])) {
+        ASSERT_NEAR(lows[t], scalar_lows[t], 1e-12) << what << " joint " << j << " frame " << t;
+        ASSERT_NEAR(highs[t], scalar_highs[t], 1e-12) << what << " joint " << j << " frame " << t;
+        tally.width += highs[t] - lows[t];
+        tally.value += value;
+      }
     }
     const int n_reference = find_pops(curve, params, reference, Implementation::reference, false);
     const int n_fast = find_pops(curve, params, fast, Implementation::fast, false);
@@ -138,8 +158,11 @@ TEST(PopScreen, SameFlagsAsTheFullTestOnTheSharedClips) {
     }
     for (const auto& [label, t] : {std::pair{"clean", clean}, std::pair{"gaussian 0.02", noisy},
                                    std::pair{"impulse 0.01", popped}})
-      std::printf("stride %d, %s: %ld of %ld samples screened (%.1f%%), %ld flags\n", stride, label,
-                  t.screened, t.samples, 100.0 * double(t.screened) / double(t.samples), t.flags);
+      std::printf(
+          "stride %d, %s: %ld of %ld samples screened (%.1f%%), %ld flags, intervals "
+          "%.2f of the values they hold wide\n",
+          stride, label, t.screened, t.samples, 100.0 * double(t.screened) / double(t.samples),
+          t.flags, t.width / t.value);
     // The screen's point: most samples skip the fits. Measured: see the printed lines (README
     // "Where the time goes"); asserted loosely so that the test says when the bound degrades.
     if (stride == 1) {
