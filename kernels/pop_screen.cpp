@@ -51,51 +51,6 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
   }
 }
 
-void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
-                         std::span<double> bounds, Implementation implementation) {
-  if (implementation == Implementation::fast && screen.usable)
-    return simd::pop_residual_bounds(curve, screen, bounds);
-  constexpr double kNone = std::numeric_limits<double>::infinity();
-  const int frames = int(curve.size()), window = screen.window;
-  const std::size_t n = screen.offsets.size();
-  std::fill(bounds.begin(), bounds.end(), kNone);
-  if (!screen.usable) return;
-  std::vector<Vec3> points(n);
-  std::vector<double> deltas(n);
-  for (int t = window; t + window < frames; ++t) {
-    // The cheap chart: 2x of q_t^-1 q_u, the product the reference's Log reads, on w >= 0.
-    const Quat to_chart = inverse(curve[std::size_t(t)]);
-    bool bounded = true;
-    for (std::size_t i = 0; i < n && bounded; ++i) {
-      Quat u = to_chart * curve[std::size_t(t + int(screen.offsets[i]))];
-      if (u.w < 0) u = negate(u);
-      const Vec3 x{u.x, u.y, u.z};
-      const double s = norm(x), length = std::sqrt(u.w * u.w + s * s);
-      const double sine = s / length;
-      bounded = sine <= kPopScreenMaxSine;
-      points[i] = 2.0 * x;
-      deltas[i] =
-          sine * sine * sine / (3.0 * (1.0 - sine * sine)) + 2.0 * s * std::abs(1.0 / length - 1.0);
-    }
-    if (!bounded) continue;
-    Vec3 coefficient[3];
-    for (int k = 0; k < 3; ++k)
-      for (std::size_t i = 0; i < n; ++i) coefficient[k] += screen.fit[k][i] * points[i];
-    for (std::size_t i = 0; i < n; ++i) {
-      const double o = screen.offsets[i];
-      const Vec3 p = coefficient[0] + o * coefficient[1] + (o * o) * coefficient[2];
-      deltas[i] += norm(points[i] - p);  // now a bound on |v_i - p(o_i)|
-    }
-    double worst = 0;
-    for (const std::vector<double>& weights : screen.block_weights) {
-      double sum = 0;
-      for (std::size_t i = 0; i < n; ++i) sum += weights[i] * deltas[i];
-      worst = std::max(worst, sum);
-    }
-    bounds[std::size_t(t)] = norm(coefficient[0]) + worst + kPopScreenMargin;
-  }
-}
-
 namespace {
 
 // The cheap chart of sample t (pop_screen.hpp, step 2): points[i] = 2x and deltas[i] for each
@@ -118,6 +73,37 @@ bool cheap_chart(std::span<const Quat> curve, const PopScreen& screen, int t,
 }
 
 }  // namespace
+
+void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
+                         std::span<double> bounds, Implementation implementation) {
+  if (implementation == Implementation::fast && screen.usable)
+    return simd::pop_residual_bounds(curve, screen, bounds);
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const int frames = int(curve.size()), window = screen.window;
+  const std::size_t n = screen.offsets.size();
+  std::fill(bounds.begin(), bounds.end(), kNone);
+  if (!screen.usable) return;
+  std::vector<Vec3> points(n);
+  std::vector<double> deltas(n);
+  for (int t = window; t + window < frames; ++t) {
+    if (!cheap_chart(curve, screen, t, points, deltas)) continue;
+    Vec3 coefficient[3];
+    for (int k = 0; k < 3; ++k)
+      for (std::size_t i = 0; i < n; ++i) coefficient[k] += screen.fit[k][i] * points[i];
+    for (std::size_t i = 0; i < n; ++i) {
+      const double o = screen.offsets[i];
+      const Vec3 p = coefficient[0] + o * coefficient[1] + (o * o) * coefficient[2];
+      deltas[i] += norm(points[i] - p);  // now a bound on |v_i - p(o_i)|
+    }
+    double worst = 0;
+    for (const std::vector<double>& weights : screen.block_weights) {
+      double sum = 0;
+      for (std::size_t i = 0; i < n; ++i) sum += weights[i] * deltas[i];
+      worst = std::max(worst, sum);
+    }
+    bounds[std::size_t(t)] = norm(coefficient[0]) + worst + kPopScreenMargin;
+  }
+}
 
 void pop_residual_intervals(std::span<const Quat> curve, const PopScreen& screen,
                             std::span<const std::uint8_t> only, std::span<double> lows,
