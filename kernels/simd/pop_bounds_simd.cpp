@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hwy/highway.h"
+#include "kernels/simd/cheap_chart_simd-inl.h"
 #include "kernels/simd/pop_bounds_simd.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -30,40 +31,18 @@ HWY_INLINE void PairTerms(D d, const double* pw, const double* px, const double*
                           const double* pz, std::size_t u, std::size_t o, const PairPlanes& out,
                           std::size_t k) {
   using V = hn::Vec<D>;
-  const V zero = hn::Zero(d), two = hn::Set(d, 2.0), one = hn::Set(d, 1.0),
-          third = hn::Set(d, 1.0 / 3.0), max_sine = hn::Set(d, kPopScreenMaxSine);
-  const V aw = hn::LoadU(d, pw + u), ax = hn::Neg(hn::LoadU(d, px + u)),
-          ay = hn::Neg(hn::LoadU(d, py + u)), az = hn::Neg(hn::LoadU(d, pz + u));
+  const QuatV<V> a_conjugate{hn::LoadU(d, pw + u), hn::Neg(hn::LoadU(d, px + u)),
+                             hn::Neg(hn::LoadU(d, py + u)), hn::Neg(hn::LoadU(d, pz + u))};
   const std::size_t v = u + o;
-  const V bw = hn::LoadU(d, pw + v), bx = hn::LoadU(d, px + v), by = hn::LoadU(d, py + v),
-          bz = hn::LoadU(d, pz + v);
-  const V w =
-      hn::Sub(hn::Sub(hn::Sub(hn::Mul(aw, bw), hn::Mul(ax, bx)), hn::Mul(ay, by)), hn::Mul(az, bz));
-  V x =
-      hn::Sub(hn::Add(hn::Add(hn::Mul(aw, bx), hn::Mul(ax, bw)), hn::Mul(ay, bz)), hn::Mul(az, by));
-  V y =
-      hn::Add(hn::Add(hn::Sub(hn::Mul(aw, by), hn::Mul(ax, bz)), hn::Mul(ay, bw)), hn::Mul(az, bx));
-  V z =
-      hn::Add(hn::Sub(hn::Add(hn::Mul(aw, bz), hn::Mul(ax, by)), hn::Mul(ay, bx)), hn::Mul(az, bw));
-  const auto flip = hn::Lt(w, zero);
-  x = hn::IfThenElse(flip, hn::Neg(x), x);
-  y = hn::IfThenElse(flip, hn::Neg(y), y);
-  z = hn::IfThenElse(flip, hn::Neg(z), z);
-  const V s2 = hn::Add(hn::Add(hn::Mul(x, x), hn::Mul(y, y)), hn::Mul(z, z));
-  // With n = |u| and r = 1 / (n w^2) (one division): 1 / n = w^2 r, and since 1 - sigma^2 =
-  // w^2 / n^2, sigma^3 / (3 (1 - sigma^2)) = s^3 r / 3. Where w = 0 (sigma = 1, beyond reach) r
-  // is infinite and sigma NaN: the comparison below is false, and the sample is not bounded.
-  const V w2 = hn::Mul(w, w), s = hn::Sqrt(s2), length = hn::Sqrt(hn::Add(w2, s2));
-  const V r = hn::Div(one, hn::Mul(length, w2));
-  const V inverse_length = hn::Mul(w2, r);
-  const V series = hn::Mul(hn::Mul(hn::Mul(s2, s), third), r);
-  const V scale = hn::Abs(hn::Sub(inverse_length, one));
-  const V sine = hn::Mul(s, inverse_length);
-  hn::StoreU(hn::Mul(two, x), d, out.x + k);
-  hn::StoreU(hn::Mul(two, y), d, out.y + k);
-  hn::StoreU(hn::Mul(two, z), d, out.z + k);
-  hn::StoreU(hn::Add(series, hn::Mul(hn::Mul(two, s), scale)), d, out.delta + k);
-  hn::StoreU(hn::IfThenElseZero(hn::Le(sine, max_sine), one), d, out.near + k);
+  const QuatV<V> b{hn::LoadU(d, pw + v), hn::LoadU(d, px + v), hn::LoadU(d, py + v),
+                   hn::LoadU(d, pz + v)};
+  const CheapPointV<V> c = CheapChartPoint(d, a_conjugate, b);
+  hn::StoreU(c.x, d, out.x + k);
+  hn::StoreU(c.y, d, out.y + k);
+  hn::StoreU(c.z, d, out.z + k);
+  hn::StoreU(c.delta, d, out.delta + k);
+  hn::StoreU(hn::IfThenElseZero(hn::Le(c.sine, hn::Set(d, kPopScreenMaxSine)), hn::Set(d, 1.0)), d,
+             out.near + k);
 }
 
 // The weighted sums of N blocks at once over the rows r_i, and their maximum with `worst`:

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hwy/highway.h"
+#include "kernels/simd/cheap_chart_simd-inl.h"
 #include "kernels/simd/pop_intervals_simd.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -35,8 +36,7 @@ void PopResidualIntervals(std::span<const Quat> curve, const PopScreen& screen,
     return per.data() + (plane * K + k) * lanes;
   };
   std::vector<int> batch;
-  const V zero = hn::Zero(d), one = hn::Set(d, 1.0), two = hn::Set(d, 2.0),
-          third = hn::Set(d, 1.0 / 3.0), max_sine = hn::Set(d, kPopScreenMaxSine),
+  const V zero = hn::Zero(d), max_sine = hn::Set(d, kPopScreenMaxSine),
           infinity = hn::Set(d, kInfinity), margin = hn::Set(d, kPopScreenMargin),
           rounding = hn::Set(d, std::sqrt(kPopIntervalSse)), below = hn::Set(d, 1 - 1e-12),
           above = hn::Set(d, 1 + 1e-12);
@@ -52,8 +52,9 @@ void PopResidualIntervals(std::span<const Quat> curve, const PopScreen& screen,
       q[2 * lanes + lane] = -a.y;
       q[3 * lanes + lane] = -a.z;
     }
-    const V aw = hn::LoadU(d, q.data()), ax = hn::LoadU(d, q.data() + lanes),
-            ay = hn::LoadU(d, q.data() + 2 * lanes), az = hn::LoadU(d, q.data() + 3 * lanes);
+    const QuatV<V> a_conjugate{hn::LoadU(d, q.data()), hn::LoadU(d, q.data() + lanes),
+                               hn::LoadU(d, q.data() + 2 * lanes),
+                               hn::LoadU(d, q.data() + 3 * lanes)};
     auto near = hn::Eq(zero, zero);
     V delta2 = zero;
     // The cheap chart (pop_screen.hpp, step 2): 2x of conj(q_t) q_u on w >= 0, and delta.
@@ -68,30 +69,13 @@ void PopResidualIntervals(std::span<const Quat> curve, const PopScreen& screen,
       }
       const V bw = hn::LoadU(d, q.data() + 4 * lanes), bx = hn::LoadU(d, q.data() + 5 * lanes),
               by = hn::LoadU(d, q.data() + 6 * lanes), bz = hn::LoadU(d, q.data() + 7 * lanes);
-      const V w = hn::Sub(hn::Sub(hn::Sub(hn::Mul(aw, bw), hn::Mul(ax, bx)), hn::Mul(ay, by)),
-                          hn::Mul(az, bz));
-      V x = hn::Sub(hn::Add(hn::Add(hn::Mul(aw, bx), hn::Mul(ax, bw)), hn::Mul(ay, bz)),
-                    hn::Mul(az, by));
-      V y = hn::Add(hn::Add(hn::Sub(hn::Mul(aw, by), hn::Mul(ax, bz)), hn::Mul(ay, bw)),
-                    hn::Mul(az, bx));
-      V z = hn::Add(hn::Sub(hn::Add(hn::Mul(aw, bz), hn::Mul(ax, by)), hn::Mul(ay, bx)),
-                    hn::Mul(az, bw));
-      const auto flip = hn::Lt(w, zero);
-      x = hn::IfThenElse(flip, hn::Neg(x), x);
-      y = hn::IfThenElse(flip, hn::Neg(y), y);
-      z = hn::IfThenElse(flip, hn::Neg(z), z);
-      const V s2 = hn::Add(hn::Add(hn::Mul(x, x), hn::Mul(y, y)), hn::Mul(z, z));
-      const V s = hn::Sqrt(s2), length = hn::Sqrt(hn::Add(hn::Mul(w, w), s2));
-      const V sine = hn::Div(s, length), sine2 = hn::Mul(sine, sine);
-      near = hn::And(near, hn::Le(sine, max_sine));
-      const V series = hn::Div(hn::Mul(hn::Mul(sine2, sine), third), hn::Sub(one, sine2));
-      const V delta =
-          hn::Add(series, hn::Mul(hn::Mul(two, s), hn::Abs(hn::Sub(hn::Div(one, length), one))));
-      hn::StoreU(hn::Mul(two, x), d, row(0, i));
-      hn::StoreU(hn::Mul(two, y), d, row(1, i));
-      hn::StoreU(hn::Mul(two, z), d, row(2, i));
-      hn::StoreU(delta, d, row(3, i));
-      delta2 = hn::MulAdd(delta, delta, delta2);
+      const CheapPointV<V> c = CheapChartPoint(d, a_conjugate, {bw, bx, by, bz});
+      near = hn::And(near, hn::Le(c.sine, max_sine));
+      hn::StoreU(c.x, d, row(0, i));
+      hn::StoreU(c.y, d, row(1, i));
+      hn::StoreU(c.z, d, row(2, i));
+      hn::StoreU(c.delta, d, row(3, i));
+      delta2 = hn::MulAdd(c.delta, c.delta, delta2);
     }
     const V slack = hn::Add(hn::Sqrt(delta2), rounding);  // Delta and the rounding
     // The normal equations of all the points: r[j][c] = sum o^j c, vv = sum |c|^2.
