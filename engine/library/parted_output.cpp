@@ -86,7 +86,55 @@ std::unique_ptr<PartedOutput> PartedOutput::open(const PartedOutputOptions& opti
     for (const auto& clip : reader->clips())
       if (clip.error.empty()) out->done_.insert(clip.path);
   }
+  // A resumed run's committed parts are not in a joined copy; they are joined at the end.
+  out->joining_ = !options.shared_parts && out->committed_parts().empty();
   return out;
+}
+
+PartedOutput::~PartedOutput() {
+  drop_joined();
+}
+
+fs::path PartedOutput::joined_path() const {
+  return parts_dir() / "joined.h5.tmp";
+}
+
+void PartedOutput::add_to_joined(const std::string& clip_path, const io::EncodedClip& clip) {
+  // Its failures cost nothing but the time saved: finish() joins the parts instead.
+  std::string ignored;
+  if (!joined_) joined_ = io::LibraryWriter::create(joined_path(), io::Compression::none, &ignored);
+  if (!joined_ || !joined_->write_encoded_as_is(clip_path, clip, &ignored)) drop_joined();
+}
+
+void PartedOutput::drop_joined() {
+  joining_ = false;
+  if (!joined_) return;
+  std::string ignored;
+  joined_->close(&ignored);
+  joined_.reset();
+  std::error_code ec;
+  fs::remove(joined_path(), ec);
+}
+
+bool PartedOutput::finish_joined(const io::Provenance& provenance) {
+  if (!joining_ || !joined_) return false;
+  std::string ignored;
+  // As the join: the provenance after the clips, a writer created with no compression.
+  if (!provenance.method.empty() && !joined_->write_provenance(provenance, &ignored)) return false;
+  const bool closed = joined_->close(&ignored);
+  joined_.reset();
+  std::error_code ec;
+  if (!closed || (fs::rename(joined_path(), options_.output, ec), ec)) return false;
+  remove_parts();
+  return true;
+}
+
+void PartedOutput::remove_parts() {
+  std::error_code ec;
+  // The finished markers go first, so that no shard that comes late joins again.
+  for (const auto& entry : fs::directory_iterator(parts_dir(), ec))
+    if (entry.path().filename().string().starts_with("finished-")) fs::remove(entry.path(), ec);
+  fs::remove_all(parts_dir(), ec);
 }
 
 std::vector<fs::path> PartedOutput::committed_parts() const {
@@ -124,6 +172,7 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
     return false;
   }
   done_.insert(clip_path);
+  if (joining_) add_to_joined(clip_path, clip);
   in_current_.push_back({clip_path,
                          {},
                          std::size_t(clip.frames),
@@ -137,6 +186,7 @@ bool PartedOutput::add(const std::string& clip_path, const io::EncodedClip& clip
 }
 
 void PartedOutput::abandon_part(const std::string& why) {
+  drop_joined();  // it may hold clips of this part
   if (current_) {
     const fs::path tmp = current_->path();
     std::string ignored;
@@ -205,7 +255,10 @@ bool PartedOutput::refresh_master(std::string* error) {
 }
 
 bool PartedOutput::finish(const io::Provenance& provenance, std::string* error) {
-  return commit(error) && join(provenance, error);
+  if (!commit(error)) return false;
+  if (finish_joined(provenance)) return true;
+  drop_joined();
+  return join(provenance, error);
 }
 
 bool PartedOutput::mark_finished(std::string* error) {
@@ -271,10 +324,7 @@ bool PartedOutput::join(const io::Provenance& provenance, std::string* error) {
                                    "then run the same command with --resume to join them",
                                    problem, parts_dir().string()));
   }
-  // The finished markers go first, so that no shard that comes late joins again.
-  for (const auto& entry : fs::directory_iterator(parts_dir(), ec))
-    if (entry.path().filename().string().starts_with("finished-")) fs::remove(entry.path(), ec);
-  fs::remove_all(parts_dir(), ec);
+  remove_parts();
   return true;
 }
 

@@ -4,6 +4,11 @@
 // After each commit OUT itself is rewritten (copy, append, rename) as a small library of external
 // links into the committed parts: whatever kills the run, OUT is valid HDF5 holding only
 // complete clips. finish() joins the parts into one self-contained OUT and removes OUT.parts.
+// A single writer (not shared parts) that starts with no committed part also copies every clip
+// into OUT.parts/joined.h5.tmp as it goes, so that finish() only closes and renames that file
+// instead of reading every part back (the join was a fifth of a CMU-sized run, README
+// "Performance"). That copy is dropped, and the parts joined as before, as soon as it could
+// differ from the committed parts: an abandoned part, or any of its own writes failing.
 // --resume reopens OUT.parts and skips the clips its committed parts hold.
 #include <chrono>
 #include <filesystem>
@@ -39,6 +44,9 @@ struct PartedOutputOptions {
 class PartedOutput {
  public:
   static std::unique_ptr<PartedOutput> open(const PartedOutputOptions& options, std::string* error);
+  ~PartedOutput();  // removes the joined copy of a run that did not finish
+  PartedOutput(const PartedOutput&) = delete;
+  PartedOutput& operator=(const PartedOutput&) = delete;
 
   std::filesystem::path parts_dir() const;
   // Clips held by committed parts (what --resume skips).
@@ -74,6 +82,11 @@ class PartedOutput {
  private:
   explicit PartedOutput(PartedOutputOptions options) : options_(std::move(options)) {}
   bool refresh_master(std::string* error);
+  std::filesystem::path joined_path() const;
+  void add_to_joined(const std::string& clip_path, const io::EncodedClip& clip);
+  bool finish_joined(const io::Provenance& provenance);
+  void drop_joined();
+  void remove_parts();
   void abandon_part(const std::string& why);
   bool all_finished(int count) const;
 
@@ -85,6 +98,9 @@ class PartedOutput {
   int clips_in_current_ = 0;
   int next_part_ = 0;
   bool master_current_ = false;  // OUT holds the links of every part committed so far
+  // The joined copy (header); joining_: it holds exactly the clips of the parts so far.
+  std::unique_ptr<io::LibraryWriter> joined_;
+  bool joining_ = false;
   std::chrono::steady_clock::time_point opened_at_;
 };
 

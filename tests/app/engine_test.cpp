@@ -304,6 +304,11 @@ TEST(EngineResume, KilledRunsLeaveValidOutputAndResumeCompletesIt) {
     const int signal = attempt % 4 == 3 ? SIGINT : SIGKILL;  // Ctrl-C finishes the clips in flight
     if (kill(pid, signal) == 0) ++kills;
     wait_exit(pid);
+    // An interrupted run removes its joined copy (PartedOutput); a killed one leaves it to the
+    // next run, which starts from the parts.
+    if (signal == SIGINT) {
+      EXPECT_FALSE(fs::exists(out + ".parts/joined.h5.tmp")) << attempt;
+    }
     // Whatever moment it died at, OUT is absent or a valid library of complete clips.
     if (fs::exists(out)) {
       for (const auto& [name, clip] : read_library(out)) {
