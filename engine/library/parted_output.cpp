@@ -206,6 +206,12 @@ void PartedOutput::abandon_part(const std::string& why) {
 
 bool PartedOutput::commit(std::string* error) {
   if (!current_) return true;
+  if (!commit_part(error)) return false;
+  refresh_master_or_warn();
+  return true;
+}
+
+bool PartedOutput::commit_part(std::string* error) {
   const fs::path tmp = current_->path();
   std::string problem;
   const bool closed = current_->close(&problem);
@@ -218,7 +224,11 @@ bool PartedOutput::commit(std::string* error) {
   }
   current_.reset();
   in_current_.clear();
-  if (!options_.keep_master_current || options_.shared_parts) return true;
+  return true;
+}
+
+void PartedOutput::refresh_master_or_warn() {
+  if (!options_.keep_master_current || options_.shared_parts) return;
   // The part is safe; OUT lagging behind costs nothing the join or --resume does not restore, so
   // a failure here (a full disk) is a warning, not a lost clip.
   if (std::string warning; !refresh_master(&warning)) {
@@ -228,7 +238,6 @@ bool PartedOutput::commit(std::string* error) {
                "join\n",
                warning, options_.output.string());
   }
-  return true;
 }
 
 bool PartedOutput::refresh_master(std::string* error) {
@@ -255,9 +264,13 @@ bool PartedOutput::refresh_master(std::string* error) {
 }
 
 bool PartedOutput::finish(const io::Provenance& provenance, std::string* error) {
-  if (!commit(error)) return false;
+  // The last part's links in OUT would live only until the joined copy replaces OUT a moment
+  // later: they are written only if that copy cannot be used.
+  const bool had_part = current_ != nullptr;
+  if (had_part && !commit_part(error)) return false;
   if (finish_joined(provenance)) return true;
   drop_joined();
+  if (had_part) refresh_master_or_warn();
   return join(provenance, error);
 }
 

@@ -81,7 +81,9 @@ class PartedOutput {
 
  private:
   explicit PartedOutput(PartedOutputOptions options) : options_(std::move(options)) {}
+  bool commit_part(std::string* error);  // commit() without refreshing OUT's links
   bool refresh_master(std::string* error);
+  void refresh_master_or_warn();
   std::filesystem::path joined_path() const;
   void add_to_joined(const std::string& clip_path, const io::EncodedClip& clip);
   bool finish_joined(const io::Provenance& provenance);
