@@ -66,6 +66,41 @@ TEST(MotionGuard, TheWalkHasFeetToLock) {
   EXPECT_GT(contacts, 0u) << "no contact: the locked branches below would be vacuous";
 }
 
+// The guard takes the lock back by restoring only the columns of the legs' joints and of their
+// hips' ancestors (motion_guard.cpp, LegColumns): the lock must change nothing else.
+TEST(MotionGuard, TheLockChangesOnlyTheColumnsTheGuardKeeps) {
+  const Clip noisy = with_noise(walk(), 0.02, 7);
+  engine::ClipFeet feet = engine::detect_feet(noisy);
+  Clip locked = noisy;
+  ASSERT_TRUE(engine::lock_feet_in_segments(feet, locked, {}).ok());
+  ASSERT_TRUE(feet.locked);
+  const std::vector<int>& parents = noisy.skeleton->parents;
+  std::vector<bool> kept(parents.size(), false);
+  for (const FootChain& leg : feet.legs) {
+    for (int j : {leg.hip, leg.knee, leg.ankle, leg.toe})
+      if (j >= 0) kept[std::size_t(j)] = true;
+    for (int a = leg.hip; a >= 0; a = parents[std::size_t(a)]) kept[std::size_t(a)] = true;
+  }
+  const std::size_t J = parents.size();
+  std::size_t changed_kept = 0;
+  for (std::size_t t = 0; t < std::size_t(noisy.frames); ++t)
+    for (std::size_t j = 0; j < J; ++j) {
+      bool same = true;
+      for (std::size_t c = 0; c < 4; ++c)
+        same =
+            same && locked.rotations[(t * J + j) * 4 + c] == noisy.rotations[(t * J + j) * 4 + c];
+      for (std::size_t c = 0; c < 3; ++c)
+        same = same &&
+               locked.translations[(t * J + j) * 3 + c] == noisy.translations[(t * J + j) * 3 + c];
+      if (kept[j]) {
+        changed_kept += !same;
+      } else {
+        EXPECT_TRUE(same) << "frame " << t << ", joint " << j;
+      }
+    }
+  EXPECT_GT(changed_kept, 0u) << "the lock changed nothing: the test would be vacuous";
+}
+
 TEST(MotionGuard, AFilterThatRemovesNoiseIsKept) {
   const Clip clean = walk();
   const Clip noisy = with_noise(clean, 0.03, 1);
