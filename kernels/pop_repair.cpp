@@ -232,14 +232,17 @@ int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
   if (curve.size() < std::size_t(kPopRepairMinFrames)) return 0;
   const std::size_t n = curve.size();
   std::vector<double> residuals(n), spreads(n), fit_errors(n);
+  // The candidate blocks of a whole window, made once per screen, or once here.
+  const std::vector<BlockFit> own =
+      screen ? std::vector<BlockFit>{} : pop_detail::whole_window_blocks(params);
+  const std::span<const BlockFit> whole_window = screen ? screen->whole_window : own;
   // The residuals of the samples where `only` is nonzero (all when empty).
   const auto compute = [&](std::span<const std::uint8_t> only) {
     if (implementation == Implementation::fast) {
-      simd::pop_residuals(curve, params, residuals, spreads, fit_errors, only);
+      simd::pop_residuals(curve, params, residuals, spreads, fit_errors, only, whole_window);
     } else if (only.empty()) {
       pop_residuals(curve, params, residuals, spreads, fit_errors);
     } else {
-      const std::vector<BlockFit> whole_window = pop_detail::whole_window_blocks(params);
       pop_detail::ChartScratch scratch(n);
       for (std::size_t t = 0; t < n; ++t)
         if (only[t])

@@ -14,7 +14,8 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
     if (o != 0) offsets.push_back(double(o));
   const std::size_t n = offsets.size();
   usable = true;
-  for (const pop_detail::BlockFit& block : pop_detail::whole_window_blocks(params)) {
+  whole_window = pop_detail::whole_window_blocks(params);
+  for (const pop_detail::BlockFit& block : whole_window) {
     const pop_detail::MomentInverse& m = block.inverse;
     // The candidates sample_residual skips, and those of tier 1, which a whole sample never
     // keeps (pop_screen.hpp, step 1).

@@ -80,6 +80,8 @@ struct PopScreen {
   std::vector<double> fit[3];  // p's coefficient k = sum_i fit[k][i] c_i (least squares)
   // The tier-0 candidates whose weights are in block_weights, in the same order (the intervals).
   std::vector<pop_detail::BlockFit> candidates;
+  // pop_detail::whole_window_blocks(params): the exact fits' candidates, made once per screen.
+  std::vector<pop_detail::BlockFit> whole_window;
   bool usable = false;  // false: a tier-0 candidate with a negative leverage (never on doubles)
 
   explicit PopScreen(const PopRepairParams& params);

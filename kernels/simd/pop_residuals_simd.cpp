@@ -32,7 +32,7 @@ HWY_INLINE V Dot3(V ax, V ay, V az, V bx, V by, V bz) {
 // The fits of hn::Lanes(d) whole-window samples. chart[((o + window) * 3 + c) * lanes + lane] is
 // component c of v_o of the lane's sample; writes its residual, spread and fit error per lane.
 template <class D>
-void FitLanes(D d, const std::vector<pop_detail::BlockFit>& blocks, int window, const double* chart,
+void FitLanes(D d, std::span<const pop_detail::BlockFit> blocks, int window, const double* chart,
               double* residual_out, double* spread_out, double* fit_error_out) {
   using V = hn::Vec<D>;
   const std::size_t lanes = hn::Lanes(d);
@@ -125,11 +125,14 @@ void FitLanes(D d, const std::vector<pop_detail::BlockFit>& blocks, int window, 
 
 void PopResiduals(std::span<const Quat> curve, const PopRepairParams& params,
                   std::span<double> residuals, std::span<double> spreads,
-                  std::span<double> fit_errors, std::span<const std::uint8_t> only) {
+                  std::span<double> fit_errors, std::span<const std::uint8_t> only,
+                  std::span<const pop_detail::BlockFit> whole_window) {
   const hn::ScalableTag<double> d;
   const std::size_t lanes = hn::Lanes(d);
   const int frames = int(curve.size()), window = params.window();
-  const std::vector<pop_detail::BlockFit> blocks = pop_detail::whole_window_blocks(params);
+  std::vector<pop_detail::BlockFit> own;
+  if (whole_window.empty()) own = pop_detail::whole_window_blocks(params);
+  const std::span<const pop_detail::BlockFit> blocks = whole_window.empty() ? own : whole_window;
   pop_detail::ChartScratch scratch(curve.size());
   std::vector<double> chart(std::size_t(2 * window + 1) * 3 * lanes);
   std::vector<double> residual(lanes), spread(lanes), fit_error(lanes);
@@ -186,8 +189,10 @@ HWY_EXPORT(PopResiduals);
 
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
-                   std::span<double> fit_errors, std::span<const std::uint8_t> only) {
-  HWY_DYNAMIC_DISPATCH(PopResiduals)(curve, params, residuals, spreads, fit_errors, only);
+                   std::span<double> fit_errors, std::span<const std::uint8_t> only,
+                   std::span<const pop_detail::BlockFit> whole_window) {
+  HWY_DYNAMIC_DISPATCH(PopResiduals)
+  (curve, params, residuals, spreads, fit_errors, only, whole_window);
 }
 
 }  // namespace mocap::simd

@@ -17,9 +17,11 @@ namespace mocap::simd {
 
 // The contract of mocap::pop_residuals. With `only` (one entry per sample), just the samples
 // where it is nonzero are computed (each lane's arithmetic is its own, so a sample's bits do not
-// depend on which others share its batch); the others are left as they were.
+// depend on which others share its batch); the others are left as they were. `whole_window`:
+// pop_detail::whole_window_blocks(params) when the caller has it (empty: made here).
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
-                   std::span<double> fit_errors, std::span<const std::uint8_t> only = {});
+                   std::span<double> fit_errors, std::span<const std::uint8_t> only = {},
+                   std::span<const pop_detail::BlockFit> whole_window = {});
 
 }  // namespace mocap::simd
