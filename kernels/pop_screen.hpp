@@ -69,8 +69,8 @@ inline constexpr double kPopIntervalSse = 1e-9;   // rad^2: the intervals' allow
 //      2 window() terms of at most a few hundred, so errors below 1e-12), a relative 1e-12 on
 //      the scores, kPopScreenMargin on the ends.
 // The medians with lo and with hi in place of the screened samples' values bracket the scale as
-// 0 and the bounds do (find_pops), but closely: on the 90-clip benchmark library the residuals
-// fitted fell from 239,662 to 49,710 (README "Performance").
+// 0 and the bounds do (find_pops), but closely, so far fewer residuals need their exact fits
+// (measured in README "Performance").
 // The weights of the bound for one PopRepairParams (its whole window's candidate fits).
 struct PopScreen {
   int window = 0;
