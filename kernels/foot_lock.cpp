@@ -82,9 +82,10 @@ void contact_labels(const std::vector<ContactInterval>* ankle,
 // span `count` frames). Returns the number of contacts (clusters of adjacent segments).
 // anchor_at(anchor, t): the anchor's position at frame t (count frames). The segments, clusters
 // and the medians' buffers are the scratch's.
-template <class Anchor>
-int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label, int blend,
-                std::span<Vec3> offset, std::span<std::uint8_t> active, FootLockScratch& scratch) {
+template <class Anchor, class Input>
+int leg_offsets(int count, Anchor anchor_at, Input input_at, bool follow_input,
+                std::span<const std::uint8_t> label, int blend, std::span<Vec3> offset,
+                std::span<std::uint8_t> active, FootLockScratch& scratch) {
   std::fill(offset.begin(), offset.end(), Vec3{});
   std::fill(active.begin(), active.end(), std::uint8_t(0));
   using Segment = FootLockScratch::Segment;
@@ -136,8 +137,25 @@ int leg_offsets(int count, Anchor anchor_at, std::span<const std::uint8_t> label
     }
     // The pin's height is not needed: only D's horizontal part is applied (header, "Target"),
     // and D's components never mix below.
-    const Vec3 pin{median(xs), 0, median(zs)};
-    for (std::size_t k = 0; k < length; ++k) offset[std::size_t(p.begin) + k] = pin - points[k];
+    if (follow_input) {
+      // The pin follows the input's anchor, smoothed (header, "Contacts").
+      const std::vector<double>& w = scratch.pin_weights;
+      const int radius = int(w.size()) - 1;
+      for (int k = 0; k < int(length); ++k) {
+        double sum = 0, x = 0, z = 0;
+        for (int j = std::max(0, k - radius); j <= std::min(int(length) - 1, k + radius); ++j) {
+          const double wj = w[std::size_t(std::abs(j - k))];
+          const Vec3 v = input_at(p.anchor, p.begin + j);
+          sum += wj;
+          x += wj * v.x;
+          z += wj * v.z;
+        }
+        offset[std::size_t(p.begin + k)] = Vec3{x / sum, 0, z / sum} - points[std::size_t(k)];
+      }
+    } else {
+      const Vec3 pin{median(xs), 0, median(zs)};
+      for (std::size_t k = 0; k < length; ++k) offset[std::size_t(p.begin) + k] = pin - points[k];
+    }
     // Neighbouring segments continue the offset the anchor had next to them.
     for (int s = primary + 1; s <= c.last; ++s) {
       const Segment& g = segments[std::size_t(s)];
@@ -228,6 +246,47 @@ double drop_of(const std::vector<std::pair<int, double>>& drops, int root) {
   for (const auto& [r, d] : drops)
     if (r == root) return std::max(d, 0.0);
   return 0.0;
+}
+
+// The input anchors' noise (header, "Contacts"), body heights; 0 where no anchor stays in one
+// contact for three frames.
+double anchor_noise(const FootLockJob& job, FootLockScratch& s) {
+  const std::size_t F = std::size_t(job.rotations.frames);
+  std::vector<double>& d = s.xs;
+  d.clear();
+  for (std::size_t l = 0; l < s.chains.size(); ++l) {
+    const std::uint8_t* label = s.labels.data() + l * F;
+    const std::size_t leg = std::size_t(s.leg_of[l]);
+    const int which = s.chains[l].toe < 0 ? 0 : 1;
+    for (std::size_t t = 1; t + 1 < F; ++t) {
+      if (label[t] == 0 || label[t - 1] != label[t] || label[t + 1] != label[t]) continue;
+      const int w = label[t] == 1 ? 0 : which;
+      const Vec3 a = job.input_anchor(leg, w, t - 1), b = job.input_anchor(leg, w, t),
+                 c = job.input_anchor(leg, w, t + 1);
+      d.push_back(std::abs(a.x - 2 * b.x + c.x));
+      d.push_back(std::abs(a.z - 2 * b.z + c.z));
+    }
+  }
+  if (d.empty()) return 0;
+  return 1.4826 * median(d) / std::sqrt(6.0) / job.body_height;
+}
+
+// The pins' Gaussian weights w[|j - k|] for the run (scratch.pin_weights; empty: median pins),
+// and the stats' noise and width.
+void pin_weights(const FootLockJob& job, FootLockScratch& s, FootLockStats& stats) {
+  s.pin_weights.clear();
+  if (job.input_anchors.empty()) return;
+  stats.anchor_noise = anchor_noise(job, s);
+  const double sigma = std::clamp(job.params.pin_width * stats.anchor_noise,
+                                  job.params.min_pin_sigma / job.frame_time,
+                                  job.params.max_pin_sigma / job.frame_time);
+  stats.pin_sigma = sigma * job.frame_time;
+  const int radius = int(std::ceil(3 * sigma));
+  s.pin_weights.resize(std::size_t(radius) + 1);
+  for (int d = 0; d <= radius; ++d) {
+    const double u = double(d) / sigma;  // d > 0 only when sigma > 0
+    s.pin_weights[std::size_t(d)] = d == 0 ? 1 : std::exp(-0.5 * u * u);
+  }
 }
 
 // run()'s steps with the touched frames as planes (kernels/simd/foot_lock_simd.hpp): forward
@@ -442,9 +501,13 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
       const std::size_t i = std::size_t(index_of[std::size_t(t)]);
       return anchor == 1 || leg.toe < 0 ? anchors[i] : anchors[n + i];
     };
-    stats.contacts +=
-        leg_offsets(frames, anchor_at, label, blend, std::span(s.offsets.data() + l * F, F),
-                    std::span(s.active.data() + l * F, F), s);
+    const std::size_t input_leg = std::size_t(s.leg_of[l]);
+    auto input_at = [&](int anchor, int t) {
+      return job.input_anchor(input_leg, anchor == 1 || leg.toe < 0 ? 0 : 1, std::size_t(t));
+    };
+    stats.contacts += leg_offsets(frames, anchor_at, input_at, !s.pin_weights.empty(), label, blend,
+                                  std::span(s.offsets.data() + l * F, F),
+                                  std::span(s.active.data() + l * F, F), s);
   }
 
   std::vector<int>& root = s.roots;
@@ -693,6 +756,10 @@ Status FootLockParams::validate() const {
     return Status::error("foot lock: max_reach must be in (0, 1]");
   if (std::isnan(max_knee_speed) || std::isinf(max_knee_speed))
     return Status::error("foot lock: max_knee_speed must be finite");
+  if (!(pin_width >= 0) || !std::isfinite(pin_width))
+    return Status::error("foot lock: pin_width must be finite and >= 0");
+  if (!(min_pin_sigma >= 0) || !(max_pin_sigma >= min_pin_sigma) || !std::isfinite(max_pin_sigma))
+    return Status::error("foot lock: need 0 <= min_pin_sigma <= max_pin_sigma, finite");
   return {};
 }
 
@@ -719,6 +786,12 @@ Status FootLockJob::validate() const {
     return Status::error("foot lock: frame_time must be > 0");
   if (!counted_steps.empty() && int(counted_steps.size()) != rotations.frames)
     return Status::error("foot lock: counted_steps must have one entry per frame");
+  if (!input_anchors.empty()) {
+    if (input_anchors.size() != std::size_t(rotations.frames) * legs.size() * 6)
+      return Status::error("foot lock: input_anchors must be [frames][legs][2][3]");
+    if (!(body_height > 0) || !std::isfinite(body_height))
+      return Status::error("foot lock: body_height must be > 0 with input_anchors");
+  }
   if (contacts.size() != legs.size())
     return Status::error("foot lock: " + std::to_string(contacts.size()) + " contact lists for " +
                          std::to_string(legs.size()) + " legs");
@@ -774,11 +847,13 @@ Status FootLockJob::run() const {
   const std::vector<const std::vector<ContactInterval>*>&ankle_lists = work.ankle_lists,
                           &toe_lists = work.toe_lists;
   work.chains.clear();
+  work.leg_of.clear();
   work.ankle_lists.clear();
   work.toe_lists.clear();
   for (std::size_t l = 0; l < legs.size(); ++l) {
     if (legs[l].hip < 0 || legs[l].knee < 0 || legs[l].ankle < 0) continue;
     work.chains.push_back(legs[l]);
+    work.leg_of.push_back(int(l));
     work.ankle_lists.push_back(&contacts[l]);
     work.toe_lists.push_back(toe_contacts.empty() || legs[l].toe < 0 ? nullptr : &toe_contacts[l]);
   }
@@ -790,6 +865,9 @@ Status FootLockJob::run() const {
 
   const int blend = std::max(1, int(std::lround(params.blend_time / frame_time)));
   work.labels.resize(leg_count * F);
+  for (std::size_t l = 0; l < leg_count; ++l)
+    contact_labels(ankle_lists[l], toe_lists[l], std::span(work.labels.data() + l * F, F));
+  pin_weights(*this, work, local_stats);
   auto labels = [&](std::size_t l) { return std::span(work.labels.data() + l * F, F); };
   // The frames the lock can touch, within `blend` frames of a contact of some leg (the offsets
   // are 0 elsewhere), and one more each side (the knee's speed there): only there are the leg
@@ -798,7 +876,6 @@ Status FootLockJob::run() const {
   touched.assign(F, 0);
   for (std::size_t l = 0; l < leg_count; ++l) {
     const std::span<std::uint8_t> label = labels(l);
-    contact_labels(ankle_lists[l], toe_lists[l], label);
     for (int t = 0, last = -2 - blend; t < frames; ++t) {
       if (label[std::size_t(t)] != 0) {
         for (int u = std::max({0, t - blend - 1, last + 1}); u <= t; ++u)
@@ -874,8 +951,13 @@ Status FootLockJob::run() const {
       const LegFrame& f = leg_frames[l][std::size_t(t)];
       return anchor == 1 || chains[l].toe < 0 ? f.ankle : f.toe;
     };
-    local_stats.contacts += leg_offsets(frames, anchor_at, label, blend, std::span(offset[l]),
-                                        std::span(active[l]), work);
+    const std::size_t input_leg = std::size_t(work.leg_of[l]);
+    auto input_at = [&](int anchor, int t) {
+      return input_anchor(input_leg, anchor == 1 || chains[l].toe < 0 ? 0 : 1, std::size_t(t));
+    };
+    local_stats.contacts +=
+        leg_offsets(frames, anchor_at, input_at, !work.pin_weights.empty(), label, blend,
+                    std::span(offset[l]), std::span(active[l]), work);
   }
 
   // The bend-plane normal of each leg, carried over frames where the leg is straight: first the

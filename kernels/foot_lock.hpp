@@ -6,10 +6,16 @@
 // Per leg (hip -> knee -> ankle, optional toe below the ankle), Y up:
 //   Contacts. The frames where the ankle's contact list (kernels/foot_contacts.hpp, found on the
 //   input) holds the ankle, else the frames where the toe's list (if given) holds the toe; a run of
-//   adjacent such frames is one contact. Its pin: the per-axis median (x, z), over its ankle frames
-//   (its toe frames when it has none), of that point's position in the filtered motion. A toe frame
-//   of a contact with ankle frames takes the offset the ankle had at the frame next to it, so the
-//   target does not jump where the heel lifts or lands.
+//   adjacent such frames is one contact. Its pin, over its ankle frames (its toe frames when it
+//   has none): with input_anchors, that point of the input (the motion the contacts were found
+//   on) smoothed by a Gaussian of sigma_p frames within those frames (weights renormalized at
+//   their ends), so the foot keeps the capture's own motion during the contact and loses the
+//   filter's slide and the input's noise; sigma_p = pin_width x the anchors' noise (in body
+//   heights: 1.4826 MAD of the second differences of x and z over the frames inside contacts,
+//   / sqrt(6) for white noise), within [min_pin_sigma, max_pin_sigma]. Without input_anchors,
+//   one pin per contact: the per-axis median (x, z) of that point in the filtered motion.
+//   A toe frame of a contact with ankle frames takes the offset the ankle had at the frame next
+//   to it, so the target does not jump where the heel lifts or lands.
 //   Target. The ankle's target is its filtered position plus an offset D(t): pin - anchor(t)
 //   inside a contact (anchor: the ankle, or the toe for a toe frame, then D moves the ankle so that
 //   the toe sits on its pin with the filtered foot orientation); between two contacts closer than
@@ -70,6 +76,12 @@ struct FootLockParams {
   // The knee's speed limit, rad/s (header, "Knee speed"): 0, the filtered motion's own peak
   // knee speed (peak_knee_speed over all steps); < 0, no limit.
   double max_knee_speed = 0;
+  // With input_anchors, the pins' Gaussian width (header, "Contacts"): pin_width frames per body
+  // height of the anchors' noise, within [min_pin_sigma, max_pin_sigma] seconds (README "Feet",
+  // "Pin", says how they were chosen).
+  double pin_width = 700;
+  double min_pin_sigma = 0.02;
+  double max_pin_sigma = 1.0;
 
   Status validate() const;
 };
@@ -81,10 +93,12 @@ double peak_knee_speed(RotationView rotations, std::span<const FootChain> legs, 
                        std::span<const std::uint8_t> counted = {});
 
 struct FootLockStats {
-  int contacts = 0;        // contacts locked, over all legs
-  int locked_frames = 0;   // leg-frames inside a contact
-  int lowered_frames = 0;  // frames where a root was lowered
-  double max_drop = 0;     // the largest drop of a root (file units)
+  int contacts = 0;         // contacts locked, over all legs
+  int locked_frames = 0;    // leg-frames inside a contact
+  int lowered_frames = 0;   // frames where a root was lowered
+  double max_drop = 0;      // the largest drop of a root (file units)
+  double anchor_noise = 0;  // with input_anchors: their noise, body heights
+  double pin_sigma = 0;     // with input_anchors: the pins' Gaussian width, seconds
 };
 
 // The working memory of FootLockJob::run (ozz-animation's scratch buffer): the fast path's planes
@@ -119,7 +133,9 @@ struct FootLockScratch {
   // One contact's anchor positions and their x, z (the pins' medians).
   std::vector<Vec3> points;
   std::vector<double> xs, zs;
-  struct Segment {  // a run of frames with the same anchor (1: ankle, 2: toe)
+  std::vector<int> leg_of;          // per complete leg, its index in FootLockJob::legs
+  std::vector<double> pin_weights;  // the pins' Gaussian, w[|j - k|]; empty: median pins
+  struct Segment {                  // a run of frames with the same anchor (1: ankle, 2: toe)
     int begin, end, anchor;
   };
   struct Cluster {  // a contact: a run of adjacent segments, indices inclusive
@@ -150,6 +166,16 @@ struct FootLockJob {
   // one-frame segment such as CMU's T-pose frame 0): left out of the knee's peak speed, and the
   // knee's speed limit does not hold across it.
   std::span<const std::uint8_t> counted_steps;
+  // Optional, [F][legs][2][3]: the ankle's and the toe's positions per leg (the ankle's twice for
+  // a leg without toe) in the motion the contacts were found on (the unfiltered input): the pins
+  // follow them (header, "Contacts"). Empty: one median pin per contact.
+  std::span<const float> input_anchors;
+  double body_height = 0;  // file units; > 0 with input_anchors
+  // input_anchors' point `which` (0: ankle, 1: toe) of leg `leg` at frame t.
+  Vec3 input_anchor(std::size_t leg, int which, std::size_t t) const {
+    const float* p = input_anchors.data() + ((t * legs.size() + leg) * 2 + std::size_t(which)) * 3;
+    return {p[0], p[1], p[2]};
+  }
   FootLockStats* stats = nullptr;  // optional, written
   // Optional working memory kept across runs (nullptr: the run allocates its own).
   FootLockScratch* scratch = nullptr;

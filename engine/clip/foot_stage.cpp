@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <utility>
 
 #include "engine/clip/filter_settings.hpp"
@@ -72,8 +73,17 @@ ClipFeet detect_feet(const Clip& clip) {
   for (const FootChain& c : find_feet(sk.joint_names, sk.parents, sk.offsets))
     if (c.hip >= 0 && c.knee >= 0 && c.ankle >= 0) feet.legs.push_back(c);
   if (feet.legs.empty()) return feet;
-  const std::vector<float> ankles = ankle_tracks(clip, feet.legs);
-  if (ankles.empty()) return {};  // checked clips always pass; nothing to lock otherwise
+  const std::size_t L = feet.legs.size();
+  std::vector<int> anchor_joints;
+  for (const FootChain& leg : feet.legs) {
+    anchor_joints.push_back(leg.ankle);
+    anchor_joints.push_back(leg.toe >= 0 ? leg.toe : leg.ankle);
+  }
+  feet.anchors = joint_positions(clip, anchor_joints);
+  if (feet.anchors.empty()) return {};  // checked clips always pass; nothing to lock otherwise
+  std::vector<float> ankles(std::size_t(clip.frames) * L * 3);
+  for (std::size_t i = 0; i < std::size_t(clip.frames) * L; ++i)
+    std::copy_n(&feet.anchors[i * 6], 3, &ankles[i * 3]);
   if (!find_contacts(clip, feet.legs, ankles, feet.contacts)) return {};  // a flat skeleton
   return feet;
 }
@@ -95,6 +105,8 @@ Status lock_feet(ClipFeet& feet, Clip& filtered, const FootLockParams& params,
   job.legs = feet.legs;
   job.contacts = feet.contacts;
   job.counted_steps = counted_steps;
+  job.input_anchors = feet.anchors;
+  job.body_height = body_height(sk);
   job.stats = &feet.stats;
   job.scratch = scratch;
   if (Status s = job.run(); !s) return s;
@@ -116,7 +128,11 @@ void FeetTally::add(const std::string& clip, const Clip& data, const ClipFeet& f
   locked_frames += std::size_t(feet.stats.locked_frames);
   lowered_frames += std::size_t(feet.stats.lowered_frames);
   nlohmann::json entry = {{"clip", clip}, {"feet", std::move(legs)}, {"locked", feet.locked}};
-  if (feet.locked) entry["root_lowered_frames"] = feet.stats.lowered_frames;
+  if (feet.locked) {
+    entry["root_lowered_frames"] = feet.stats.lowered_frames;
+    entry["anchor_noise"] = feet.stats.anchor_noise;  // body heights
+    entry["pin_sigma_s"] = feet.stats.pin_sigma;
+  }
   by_clip.push_back(std::move(entry));
 }
 

@@ -24,6 +24,8 @@ struct ClipFeet {
   std::vector<FootChain> legs;  // the skeleton's feet (find_feet)
   // Per leg, its ankle's: found on the input, then widened by lock_feet.
   std::vector<std::vector<ContactInterval>> contacts;
+  // [F][legs][2][3]: the input's ankle and toe positions per leg (the ankle again without toe).
+  std::vector<float> anchors;
   FootLockStats stats;  // of lock_feet
   bool locked = false;
 };

@@ -74,7 +74,7 @@ std::string_view to_string(Kept kept) {
 }
 
 bool raises_motion(const MotionMeasure& after, const MotionMeasure& before) {
-  return after.jitter > before.jitter || after.skating > before.skating;
+  return after.jitter > before.jitter || after.skating > before.skating * (1 + kMeasureRounding);
 }
 
 Status MotionGuardJob::validate() const {

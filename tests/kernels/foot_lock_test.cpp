@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -241,6 +242,172 @@ TEST(FootLock, AnUnreachablePinLowersTheRootAndTheFootStillHolds) {
           EXPECT_EQ(a, b) << "frame " << t << " joint " << j << " channel " << c;
         }
       }
+}
+
+// The input's anchors as FootLockJob::input_anchors takes them, [F][legs][ankle, toe][3], from
+// `track(leg, which, t)`.
+template <class Track>
+std::vector<float> input_anchors(int frames, Track track) {
+  std::vector<float> out;
+  for (int t = 0; t < frames; ++t)
+    for (int leg = 0; leg < 2; ++leg)
+      for (int which = 0; which < 2; ++which) {
+        const Vec3 v = track(leg, which, t);
+        out.insert(out.end(), {float(v.x), float(v.y), float(v.z)});
+      }
+  return out;
+}
+
+// Locks `walk` with pins that follow `anchors` (body height 1 file unit).
+FootLockStats lock_to(Walk& walk, const std::vector<std::vector<ContactInterval>>& contacts,
+                      const std::vector<float>& anchors, FootLockParams params,
+                      Implementation implementation = Implementation::fast) {
+  const std::vector<FootChain> legs = walk_legs();
+  FootLockStats stats;
+  FootLockJob job;
+  job.params = params;
+  job.parents = walk.parents;
+  job.offsets = walk.offsets;
+  job.translated_joints = walk.translated;
+  job.frame_time = walk.frame_time;
+  job.rotations = {walk.rotations.data(), walk.frames, Walk::kJoints};
+  job.translations = {walk.translations.data(), walk.frames, Walk::kJoints};
+  job.legs = legs;
+  job.contacts = contacts;
+  job.input_anchors = anchors;
+  job.body_height = 1;
+  job.stats = &stats;
+  job.implementation = implementation;
+  const Status s = job.run();
+  EXPECT_TRUE(s.ok()) << s.message();
+  return stats;
+}
+
+// With the input's anchors, the pin is the input's own foot, not one point per contact: where
+// the input shows no noise its slow real motion during the contact (here a steady heel turn of
+// 1 mm per frame, while the filtered foot slides its own way) comes out as the input had it,
+// exactly without smoothing and, with the default smoothing (a Gaussian is exact on a straight
+// line), at every frame more than its three widths from the contact's ends.
+TEST(FootLock, ThePinsFollowTheInputsOwnFootWhereItHasNoNoise) {
+  const ContactInterval contact{96, 144};
+  const Walk original(240, 1.0 / 120);
+  const std::vector<float> before = original.positions();
+  const Vec3 start = point(before, contact.begin, Walk::kLeftAnkle);
+  auto track = [&](int, int, int t) { return start + Vec3{0, 0, 0.001 * (t - contact.begin)}; };
+  const std::vector<float> anchors = input_anchors(original.frames, track);
+  for (double min_sigma : {0.0, FootLockParams{}.min_pin_sigma}) {
+    Walk walk(240, 1.0 / 120);
+    FootLockParams params;
+    params.max_knee_speed = -1;  // the IK's geometry alone (see APlantedFootThatSlides...)
+    params.min_pin_sigma = min_sigma;
+    const FootLockStats stats = lock_to(walk, {{contact}, {}}, anchors, params);
+    EXPECT_LT(stats.anchor_noise, 1e-6);
+    EXPECT_NEAR(stats.pin_sigma, min_sigma, 1e-12);
+    const std::vector<float> after = walk.positions();
+    const int edge = int(std::ceil(3 * min_sigma / walk.frame_time));
+    double filtered_slide = 0;
+    for (int t = contact.begin + edge; t < contact.end - edge; ++t) {
+      const Vec3 got = point(after, t, Walk::kLeftAnkle), want = track(0, 0, t);
+      EXPECT_LT(horizontal(got - want), 2e-5) << "frame " << t << " sigma " << min_sigma;
+      EXPECT_NEAR(got.y, point(before, t, Walk::kLeftAnkle).y, 1e-5) << "frame " << t;
+      filtered_slide =
+          std::max(filtered_slide, horizontal(point(before, t, Walk::kLeftAnkle) - want));
+    }
+    EXPECT_GT(filtered_slide, 0.005) << "the filtered foot was already there: vacuous";
+  }
+}
+
+// A noisy input: the anchors' noise is measured (white noise of 0.01 body heights on x and z),
+// the pin's width follows from it (pin_width frames per body height), and the locked foot holds
+// near the point the input stands on with a small part of the input's step to step jitter.
+TEST(FootLock, TheInputsNoiseIsMeasuredAndSmoothedOutOfThePins) {
+  const ContactInterval contact{72, 168};
+  const Walk original(240, 1.0 / 120);
+  const std::vector<float> before = original.positions();
+  const Vec3 stand = point(before, 120, Walk::kLeftAnkle);
+  std::uint64_t state = 12345;
+  auto gaussian = [&] {  // Box-Muller on a 64-bit LCG: the same draws on every platform
+    auto uniform = [&] {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      return (double(state >> 11) + 0.5) / 9007199254740992.0;
+    };
+    const double u = uniform(), v = uniform();
+    return std::sqrt(-2 * std::log(u)) * std::cos(2 * kPi * v);
+  };
+  const double noise = 0.01;
+  std::vector<Vec3> track(std::size_t(original.frames));
+  for (Vec3& v : track) v = stand + Vec3{noise * gaussian(), 0, noise * gaussian()};
+  const std::vector<float> anchors =
+      input_anchors(original.frames, [&](int, int, int t) { return track[std::size_t(t)]; });
+  Walk walk(240, 1.0 / 120);
+  FootLockParams params;
+  params.max_knee_speed = -1;
+  const FootLockStats stats = lock_to(walk, {{contact}, {}}, anchors, params);
+  EXPECT_NEAR(stats.anchor_noise, noise, 0.15 * noise);
+  EXPECT_NEAR(stats.pin_sigma, params.pin_width * stats.anchor_noise * walk.frame_time, 1e-12);
+  const std::vector<float> after = walk.positions();
+  double input_step = 0, locked_step = 0, off = 0;
+  for (int t = contact.begin + 1; t < contact.end; ++t) {
+    input_step += horizontal(track[std::size_t(t)] - track[std::size_t(t - 1)]);
+    locked_step +=
+        horizontal(point(after, t, Walk::kLeftAnkle) - point(after, t - 1, Walk::kLeftAnkle));
+    off = std::max(off, horizontal(point(after, t, Walk::kLeftAnkle) - stand));
+  }
+  std::printf(
+      "noise %.5f (added %.5f), pin sigma %.4f s, mean step input %.5f locked %.5f, "
+      "farthest from the stand %.5f\n",
+      stats.anchor_noise, noise, stats.pin_sigma, input_step / 95, locked_step / 95, off);
+  EXPECT_LT(locked_step, 0.25 * input_step);
+  EXPECT_LT(off, 1.5 * noise);
+}
+
+// The fast path against the reference with pins that follow noisy input anchors, at 120 and 30
+// fps, toe contacts included.
+TEST(FootLock, TheFastPathMatchesTheReferenceWithInputAnchors) {
+  for (double frame_time : {1.0 / 120, 1.0 / 30}) {
+    const int frames = int(std::lround(2 / frame_time));
+    const Walk original(frames, frame_time);
+    const std::vector<float> before = original.positions();
+    std::vector<float> anchors = input_anchors(frames, [&](int leg, int which, int t) {
+      const int j = leg == 0 ? (which == 0 ? Walk::kLeftAnkle : Walk::kLeftToe)
+                             : (which == 0 ? Walk::kRightAnkle : Walk::kRightToe);
+      const Vec3 v = point(before, t, j);
+      return v + Vec3{0.004 * std::sin(1.7 * t + leg), 0, 0.004 * std::cos(2.3 * t + which)};
+    });
+    const auto at = [&](int t120) { return int(std::lround(t120 / 120.0 / frame_time)); };
+    const std::vector<std::vector<ContactInterval>> contacts{{{at(100), at(140)}},
+                                                             {{at(50), at(80)}}};
+    const std::vector<std::vector<ContactInterval>> toes{{{at(140), at(148)}}, {}};
+    Walk walks[2] = {Walk(frames, frame_time), Walk(frames, frame_time)};
+    FootLockStats stats[2];
+    for (int i = 0; i < 2; ++i) {
+      const std::vector<FootChain> legs = walk_legs();
+      FootLockJob job;
+      job.parents = walks[i].parents;
+      job.offsets = walks[i].offsets;
+      job.translated_joints = walks[i].translated;
+      job.frame_time = frame_time;
+      job.rotations = {walks[i].rotations.data(), frames, Walk::kJoints};
+      job.translations = {walks[i].translations.data(), frames, Walk::kJoints};
+      job.legs = legs;
+      job.contacts = contacts;
+      job.toe_contacts = toes;
+      job.input_anchors = anchors;
+      job.body_height = 1;
+      job.stats = &stats[i];
+      job.implementation = i == 0 ? Implementation::reference : Implementation::fast;
+      ASSERT_TRUE(job.run().ok());
+    }
+    EXPECT_EQ(stats[0].anchor_noise, stats[1].anchor_noise);
+    EXPECT_GT(stats[0].anchor_noise, 0);
+    double largest = 0, moved = 0;
+    for (std::size_t i = 0; i < walks[0].rotations.size(); ++i) {
+      largest = std::max(largest, double(std::abs(walks[0].rotations[i] - walks[1].rotations[i])));
+      moved = std::max(moved, double(std::abs(walks[0].rotations[i] - original.rotations[i])));
+    }
+    EXPECT_LE(largest, 1e-6) << frame_time;
+    EXPECT_GT(moved, 1e-3) << frame_time << ": the lock did nothing, the test would be vacuous";
+  }
 }
 
 // The largest angular speed of joint j's local rotation, rad/s.
@@ -489,6 +656,18 @@ TEST(FootLock, ValidateExplainsWhatIsWrong) {
   EXPECT_NE(job.validate().message().find("ordered"), std::string::npos);
   job.contacts = std::span<const std::vector<ContactInterval>>(contacts.data(), 1);
   EXPECT_NE(job.validate().message().find("1 contact lists for 2 legs"), std::string::npos);
+  job.contacts = contacts;
+  const std::vector<float> anchors(std::size_t(walk.frames) * 2 * 6 - 3);
+  job.input_anchors = anchors;
+  EXPECT_NE(job.validate().message().find("input_anchors must be [frames][legs][2][3]"),
+            std::string::npos);
+  const std::vector<float> whole(std::size_t(walk.frames) * 2 * 6);
+  job.input_anchors = whole;
+  EXPECT_NE(job.validate().message().find("body_height"), std::string::npos);
+  job.body_height = 1.7;
+  EXPECT_TRUE(job.validate().ok());
+  job.params.min_pin_sigma = 2;
+  EXPECT_NE(job.validate().message().find("min_pin_sigma"), std::string::npos);
 }
 
 }  // namespace
