@@ -129,26 +129,46 @@ int leg_offsets(int count, Anchor anchor_at, Input input_at, bool follow_input,
     points.resize(length);
     xs.resize(length);
     zs.resize(length);
-    for (std::size_t k = 0; k < length; ++k) {
-      const Vec3 v = anchor_at(p.anchor, p.begin + int(k));
-      points[k] = v;
-      xs[k] = v.x;
-      zs[k] = v.z;
-    }
     // The pin's height is not needed: only D's horizontal part is applied (header, "Target"),
-    // and D's components never mix below.
+    // and D's components never mix below. xs, zs: the points the pins come from, the input's
+    // (follow_input) or the filtered motion's.
+    for (std::size_t k = 0; k < length; ++k) {
+      const int t = p.begin + int(k);
+      const Vec3 v = anchor_at(p.anchor, t);
+      const Vec3 from = follow_input ? input_at(p.anchor, t) : v;
+      points[k] = v;
+      xs[k] = from.x;
+      zs[k] = from.z;
+    }
     if (follow_input) {
       // The pin follows the input's anchor, smoothed (header, "Contacts").
       const std::vector<double>& w = scratch.pin_weights;
-      const int radius = int(w.size()) - 1;
-      for (int k = 0; k < int(length); ++k) {
-        double sum = 0, x = 0, z = 0;
-        for (int j = std::max(0, k - radius); j <= std::min(int(length) - 1, k + radius); ++j) {
-          const double wj = w[std::size_t(std::abs(j - k))];
-          const Vec3 v = input_at(p.anchor, p.begin + j);
-          sum += wj;
-          x += wj * v.x;
-          z += wj * v.z;
+      const int radius = int(w.size()) - 1, n = int(length);
+      double whole = w[0];  // the weights' sum where the window lies inside the segment
+      for (int d = 1; d <= radius; ++d) whole += 2 * w[std::size_t(d)];
+      for (int k = 0; k < n; ++k) {
+        double sum = w[0], x = w[0] * xs[std::size_t(k)], z = w[0] * zs[std::size_t(k)];
+        if (k >= radius && k + radius < n) {
+          for (int d = 1; d <= radius; ++d) {
+            const double wd = w[std::size_t(d)];
+            x += wd * (xs[std::size_t(k - d)] + xs[std::size_t(k + d)]);
+            z += wd * (zs[std::size_t(k - d)] + zs[std::size_t(k + d)]);
+          }
+          sum = whole;
+        } else {
+          for (int d = 1; d <= radius; ++d) {
+            const double wd = w[std::size_t(d)];
+            if (k - d >= 0) {
+              sum += wd;
+              x += wd * xs[std::size_t(k - d)];
+              z += wd * zs[std::size_t(k - d)];
+            }
+            if (k + d < n) {
+              sum += wd;
+              x += wd * xs[std::size_t(k + d)];
+              z += wd * zs[std::size_t(k + d)];
+            }
+          }
         }
         offset[std::size_t(p.begin + k)] = Vec3{x / sum, 0, z / sum} - points[std::size_t(k)];
       }
