@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -89,8 +90,9 @@ std::vector<FootChain> walk_legs() {
   return {left, right};
 }
 
+// `anchors` (optional): the pins follow them (FootLockJob::input_anchors, body height 1 unit).
 FootLockStats lock(Walk& walk, const std::vector<std::vector<ContactInterval>>& contacts,
-                   FootLockParams params = {}) {
+                   FootLockParams params = {}, std::span<const float> anchors = {}) {
   const std::vector<FootChain> legs = walk_legs();
   FootLockStats stats;
   FootLockJob job;
@@ -103,6 +105,8 @@ FootLockStats lock(Walk& walk, const std::vector<std::vector<ContactInterval>>& 
   job.translations = {walk.translations.data(), walk.frames, Walk::kJoints};
   job.legs = legs;
   job.contacts = contacts;
+  job.input_anchors = anchors;
+  job.body_height = 1;
   job.stats = &stats;
   const Status s = job.run();
   EXPECT_TRUE(s.ok()) << s.message();
@@ -258,31 +262,6 @@ std::vector<float> input_anchors(int frames, Track track) {
   return out;
 }
 
-// Locks `walk` with pins that follow `anchors` (body height 1 file unit).
-FootLockStats lock_to(Walk& walk, const std::vector<std::vector<ContactInterval>>& contacts,
-                      const std::vector<float>& anchors, FootLockParams params,
-                      Implementation implementation = Implementation::fast) {
-  const std::vector<FootChain> legs = walk_legs();
-  FootLockStats stats;
-  FootLockJob job;
-  job.params = params;
-  job.parents = walk.parents;
-  job.offsets = walk.offsets;
-  job.translated_joints = walk.translated;
-  job.frame_time = walk.frame_time;
-  job.rotations = {walk.rotations.data(), walk.frames, Walk::kJoints};
-  job.translations = {walk.translations.data(), walk.frames, Walk::kJoints};
-  job.legs = legs;
-  job.contacts = contacts;
-  job.input_anchors = anchors;
-  job.body_height = 1;
-  job.stats = &stats;
-  job.implementation = implementation;
-  const Status s = job.run();
-  EXPECT_TRUE(s.ok()) << s.message();
-  return stats;
-}
-
 // With the input's anchors, the pin is the input's own foot, not one point per contact: where
 // the input shows no noise its slow real motion during the contact (here a steady heel turn of
 // 1 mm per frame, while the filtered foot slides its own way) comes out as the input had it,
@@ -300,7 +279,7 @@ TEST(FootLock, ThePinsFollowTheInputsOwnFootWhereItHasNoNoise) {
     FootLockParams params;
     params.max_knee_speed = -1;  // the IK's geometry alone (see APlantedFootThatSlides...)
     params.min_pin_sigma = min_sigma;
-    const FootLockStats stats = lock_to(walk, {{contact}, {}}, anchors, params);
+    const FootLockStats stats = lock(walk, {{contact}, {}}, params, anchors);
     EXPECT_LT(stats.anchor_noise, 1e-6);
     EXPECT_NEAR(stats.pin_sigma, min_sigma, 1e-12);
     const std::vector<float> after = walk.positions();
@@ -342,7 +321,7 @@ TEST(FootLock, TheInputsNoiseIsMeasuredAndSmoothedOutOfThePins) {
   Walk walk(240, 1.0 / 120);
   FootLockParams params;
   params.max_knee_speed = -1;
-  const FootLockStats stats = lock_to(walk, {{contact}, {}}, anchors, params);
+  const FootLockStats stats = lock(walk, {{contact}, {}}, params, anchors);
   EXPECT_NEAR(stats.anchor_noise, noise, 0.15 * noise);
   EXPECT_NEAR(stats.pin_sigma, params.pin_width * stats.anchor_noise * walk.frame_time, 1e-12);
   const std::vector<float> after = walk.positions();
