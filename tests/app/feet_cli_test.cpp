@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "kernels/foot_lock.hpp"
 #include "tests/test_support.hpp"
 
 namespace mocap {
@@ -33,6 +34,13 @@ TEST(FeetCli, AutoLocksAndReportsTheContactsOfEveryClip) {
   std::size_t contacts = 0;
   for (const auto& clip : feet["by_clip"]) {
     ASSERT_EQ(clip["feet"].size(), 2u) << clip.dump();  // CMU: LeftFoot and RightFoot
+    if (clip["locked"].get<bool>()) {
+      // The pins' smoothing, from the input feet's noise, within FootLockParams' bounds.
+      const FootLockParams bounds;
+      EXPECT_GT(clip["anchor_noise"].get<double>(), 0) << clip.dump();
+      EXPECT_GE(clip["pin_sigma_s"].get<double>(), bounds.min_pin_sigma) << clip.dump();
+      EXPECT_LE(clip["pin_sigma_s"].get<double>(), bounds.max_pin_sigma) << clip.dump();
+    }
     for (const auto& foot : clip["feet"]) {
       EXPECT_EQ(foot["contacts"].get<std::size_t>(), foot["intervals"].size());
       contacts += foot["intervals"].size();
