@@ -277,10 +277,9 @@ double anchor_noise(const FootLockJob& job, FootLockScratch& s) {
   for (std::size_t l = 0; l < s.chains.size(); ++l) {
     const std::uint8_t* label = s.labels.data() + l * F;
     const std::size_t leg = std::size_t(s.leg_of[l]);
-    const int which = s.chains[l].toe < 0 ? 0 : 1;
     for (std::size_t t = 1; t + 1 < F; ++t) {
       if (label[t] == 0 || label[t - 1] != label[t] || label[t + 1] != label[t]) continue;
-      const int w = label[t] == 1 ? 0 : which;
+      const int w = label[t] - 1;  // the label's anchor (input_anchors hold a toeless ankle twice)
       const Vec3 a = job.input_anchor(leg, w, t - 1), b = job.input_anchor(leg, w, t),
                  c = job.input_anchor(leg, w, t + 1);
       d.push_back(std::abs(a.x - 2 * b.x + c.x));
@@ -523,7 +522,7 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     };
     const std::size_t input_leg = std::size_t(s.leg_of[l]);
     auto input_at = [&](int anchor, int t) {
-      return job.input_anchor(input_leg, anchor == 1 || leg.toe < 0 ? 0 : 1, std::size_t(t));
+      return job.input_anchor(input_leg, anchor - 1, std::size_t(t));
     };
     stats.contacts += leg_offsets(frames, anchor_at, input_at, !s.pin_weights.empty(), label, blend,
                                   std::span(s.offsets.data() + l * F, F),
@@ -973,7 +972,7 @@ Status FootLockJob::run() const {
     };
     const std::size_t input_leg = std::size_t(work.leg_of[l]);
     auto input_at = [&](int anchor, int t) {
-      return input_anchor(input_leg, anchor == 1 || chains[l].toe < 0 ? 0 : 1, std::size_t(t));
+      return input_anchor(input_leg, anchor - 1, std::size_t(t));
     };
     local_stats.contacts +=
         leg_offsets(frames, anchor_at, input_at, !work.pin_weights.empty(), label, blend,
