@@ -236,8 +236,10 @@ BENCHMARK(BM_ForwardKinematics)
 // Foot locking (README "Feet") on the bof fixture's motion, 31 joints x 1000 frames: a chain
 // skeleton with two legs (hip, knee, ankle, toe), each with four contacts of 150 frames (60 % of
 // the clip locked). Each iteration restores the joints the lock writes (the legs' hips, knees and
-// ankles), then locks them in place; compare with BM_Bof/fast:1/J:31/F:1000. Arg: implementation
-// (0 reference, 1 fast).
+// ankles), then locks them in place; compare with BM_Bof/fast:1/J:31/F:1000. Args: implementation
+// (0 reference, 1 fast); scratch kept across runs; input: 0, one median pin per contact, 1, pins
+// that follow the input's feet (input_anchors from the fixture's input motion, as the engine runs
+// it).
 void BM_FootLock(benchmark::State& state) {
   const int frames = 1000, joints = 31;
   Fixture f(frames, joints);
@@ -277,6 +279,22 @@ void BM_FootLock(benchmark::State& state) {
   // scratch:1, as the engine runs it: one FootLockScratch kept across runs (clips).
   FootLockScratch scratch;
   if (state.range(1) != 0) job.scratch = &scratch;
+  std::vector<float> anchors;
+  if (state.range(2) != 0) {
+    std::vector<int> points;
+    for (const FootChain& leg : legs) points.insert(points.end(), {leg.ankle, leg.toe});
+    anchors.resize(std::size_t(frames) * points.size() * 3);
+    ForwardKinematicsJob fk;
+    fk.parents = parents;
+    fk.offsets = offsets;
+    fk.rotations = {f.in.data(), frames, joints};
+    fk.translations = {translations.data(), frames, joints};
+    fk.output_joints = points;
+    fk.positions = {anchors.data(), frames, int(points.size())};
+    if (!fk.run().ok()) state.SkipWithError("forward kinematics failed");
+    job.input_anchors = anchors;
+    job.body_height = 1.8;
+  }
   std::vector<int> written;
   for (const FootChain& leg : legs) written.insert(written.end(), {leg.hip, leg.knee, leg.ankle});
   std::copy(f.in.begin(), f.in.end(), f.out.begin());
@@ -293,10 +311,12 @@ void BM_FootLock(benchmark::State& state) {
   f.count(state);
 }
 BENCHMARK(BM_FootLock)
-    ->ArgNames({"fast", "scratch"})
-    ->Args({0, 0})
-    ->Args({1, 0})
-    ->Args({1, 1})
+    ->ArgNames({"fast", "scratch", "input"})
+    ->Args({0, 0, 0})
+    ->Args({1, 0, 0})
+    ->Args({1, 1, 0})
+    ->Args({0, 0, 1})
+    ->Args({1, 1, 1})
     ->Unit(benchmark::kMillisecond);
 
 void BM_Gaussian(benchmark::State& state) {
