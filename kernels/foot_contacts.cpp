@@ -52,6 +52,27 @@ double horizontal_noise(const std::vector<Vec3>& track) {
   return largest;
 }
 
+// 2 sum_r ((g(r+1) - g(r-1)) / 2)^2 for the normalized taps g of smooth() at sigma frames (the
+// identity below sigma 0.5): the squared central-difference speed per frame^2 of white noise of
+// unit variance per horizontal axis.
+double smoothed_speed_gain(double sigma) {
+  if (sigma < 0.5) return 2 * 0.5;  // ((e[t+1] - e[t-1]) / 2)^2 has variance 1/2 per axis
+  const int reach = int(std::ceil(3 * sigma));
+  std::vector<double> g(std::size_t(2 * reach + 3), 0.0);  // g[r + reach + 1], zero outside
+  double sum = 0;
+  for (int r = -reach; r <= reach; ++r)
+    sum += g[std::size_t(r + reach + 1)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  double gain = 0;
+  for (int r = -reach - 1; r <= reach + 1; ++r) {
+    const auto at = [&](int u) {
+      return u < -reach - 1 || u > reach + 1 ? 0.0 : g[std::size_t(u + reach + 1)] / sum;
+    };
+    const double d = (at(r - 1) - at(r + 1)) / 2;
+    gain += d * d;
+  }
+  return 2 * gain;
+}
+
 std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootContactParams& p,
                                     double frame_time, double height) {
   const int n = int(track.size());
@@ -70,6 +91,19 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
     sigma = std::max(sigma, std::min(needed, p.max_smoothing_seconds / frame_time));
   }
   const std::vector<Vec3> s = smooth(track, sigma);
+  // The speed thresholds allow for the noise's own speed: white noise of std n per axis adds
+  // E|e|^2 = n^2 smoothed_speed_gain(sigma) / frame_time^2 to the squared speed of the smoothed
+  // track, so a planted foot reads as moving. Entering takes sqrt(enter_speed^2 + a^2 E|e|^2)
+  // (a: noise_allowance); leaving keeps exit_speed unless that is lower (README "Feet",
+  // "Contacts": raising both held lift-offs planted and cost rotations at low noise).
+  double enter_speed = p.enter_speed, exit_speed = p.exit_speed;
+  if (p.noise_allowance > 0) {
+    const double relative = horizontal_noise(track) / height;
+    const double e2 = relative * relative * smoothed_speed_gain(sigma) / (frame_time * frame_time);
+    const double allowance = p.noise_allowance * p.noise_allowance * e2;
+    enter_speed = std::sqrt(enter_speed * enter_speed + allowance);
+    exit_speed = std::max(exit_speed, enter_speed);
+  }
   // The floor from the smoothed heights: the raw heights' low percentile sits about 1.6 noise
   // deviations below the floor, which on noisy input is the whole enter_height band.
   std::vector<double> ys(s.size());
@@ -89,8 +123,8 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
     bool now = planted;
     if (t < n) {
       const double h = (s[std::size_t(t)].y - floor) / height, v = speed(t);
-      now = planted ? !(h > p.exit_height || v > p.exit_speed)
-                    : (h < p.enter_height && v < p.enter_speed);
+      now = planted ? !(h > p.exit_height || v > exit_speed)
+                    : (h < p.enter_height && v < enter_speed);
     } else {
       now = false;
     }
@@ -122,11 +156,12 @@ Status FootContactParams::validate() const {
     if (!positive_finite(v)) return Status::error("foot contacts: thresholds must be > 0");
   if (!(smoothing_seconds >= 0) || !std::isfinite(smoothing_seconds))
     return Status::error("foot contacts: smoothing_seconds must be >= 0");
-  for (double v : {max_smoothing_seconds, noise_speed_fraction, merge_seconds, merge_distance})
+  for (double v : {max_smoothing_seconds, noise_speed_fraction, noise_allowance, merge_seconds,
+                   merge_distance})
     if (!(v >= 0) || !std::isfinite(v))
       return Status::error(
-          "foot contacts: max_smoothing_seconds, noise_speed_fraction, merge_seconds and "
-          "merge_distance must be finite and >= 0");
+          "foot contacts: max_smoothing_seconds, noise_speed_fraction, noise_allowance, "
+          "merge_seconds and merge_distance must be finite and >= 0");
   if (exit_height < enter_height || exit_speed < enter_speed)
     return Status::error("foot contacts: an exit threshold must be at least its enter threshold");
   return {};

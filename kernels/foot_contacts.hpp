@@ -14,7 +14,8 @@
 //                pops and to clips that start mid-air; the raw heights' sits ~1.6 noise
 //                deviations low, which on noisy input fills the whole enter_height band);
 //   speed[t]   = |smoothed[t+1] - smoothed[t-1]| / (2 frame_time), horizontal (x, z) only;
-//   planted    enters when height - floor < enter_height and speed < enter_speed, and leaves
+//   planted    enters when height - floor < enter_height and speed < enter_speed (raised by the
+//              track's noise with noise_allowance > 0), and leaves
 //              when height - floor > exit_height or speed > exit_speed (hysteresis: noise near
 //              a threshold does not chatter); a break of at most merge_seconds over which the
 //              smoothed foot moved less than merge_distance body heights joins the contacts
@@ -50,6 +51,12 @@ struct FootContactParams {
   // README "Feet": widening the smoothing by the noise joined the swings of the demo's noisier
   // clips (0.05 rad) to their stances, and cost them 5-11 dB of rotation PSNR).
   double noise_speed_fraction = 0;
+  // a: how many times the track's own noise speed e (the rms speed that its noise n, as above,
+  // reads as after the smoothing) the enter threshold allows for, in quadrature:
+  // enter_speed' = sqrt(enter_speed^2 + (a e)^2), exit_speed' = max(exit_speed, enter_speed').
+  // With noise a planted foot reads as moving by the noise alone. 0: the thresholds as given
+  // (the skating metric's contacts); the lock's detector uses engine's kContactNoiseAllowance.
+  double noise_allowance = 0;
   double merge_seconds = 0.1;
   double merge_distance = 0.01;  // of body height
   double min_seconds = 0.05;

@@ -45,6 +45,7 @@ bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs,
   job.frame_time = clip.frame_time;
   job.body_height = body_height(*clip.skeleton);
   job.contacts = &contacts;
+  job.params.noise_allowance = kContactNoiseAllowance;
   return job.run().ok();
 }
 

@@ -19,6 +19,10 @@ namespace mocap::engine {
 // contact's pin for widen_contacts to grow the contact over it (README "Feet", "Widening", says
 // how it was chosen).
 constexpr double kWidenReach = 0.02;
+// The lock's contact detector lets a foot enter a contact at up to this many times its track's
+// noise speed above the enter threshold (FootContactParams::noise_allowance; README "Feet",
+// "Contacts", says how it was chosen). The skating metric's contacts use none.
+constexpr double kContactNoiseAllowance = 2;
 
 struct ClipFeet {
   std::vector<FootChain> legs;  // the skeleton's feet (find_feet)

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <random>
 #include <set>
 #include <string>
@@ -51,9 +53,11 @@ Track walking_foot(double fps, int frames, std::vector<ContactInterval>* planted
   return track;
 }
 
-std::vector<ContactInterval> detect(const Track& track, int frames, double fps) {
+std::vector<ContactInterval> detect(const Track& track, int frames, double fps,
+                                    double noise_allowance = 0) {
   std::vector<std::vector<ContactInterval>> contacts;
   FootContactJob job;
+  job.params.noise_allowance = noise_allowance;
   job.feet = view(track, frames, 1);
   job.frame_time = 1.0 / fps;
   job.body_height = 170;
@@ -114,6 +118,124 @@ TEST(FootContacts, EvalsNoiseDoesNotChatterAtAnyFrameRate) {
   }
 }
 
+// A running foot at `fps`: planted for 0.12 s while it rolls forward at 0.12 body heights per
+// second (as the shared clips' runs do, 02_03), then 0.5 s in the air, 150 cm forward and up to 30
+// cm high. Units: cm, body height 170.
+Track running_foot(double fps, int frames, std::vector<ContactInterval>* planted) {
+  Track track(std::size_t(frames) * 3);
+  const double cycle = 0.62, stance = 0.12, roll = 0.12 * 170;
+  int begin = -1;
+  for (int t = 0; t < frames; ++t) {
+    const double time = t / fps, phase = std::fmod(time, cycle);
+    const int steps = int(time / cycle);
+    double x = (150.0 + roll * stance) * steps, y = 8.0;
+    const bool down = phase < stance;
+    if (down) {
+      x += roll * phase;
+    } else {
+      const double s = (phase - stance) / (cycle - stance);
+      x += roll * stance + 150.0 * (0.5 - 0.5 * std::cos(kPi * s));
+      y += 30.0 * std::sin(kPi * s);
+    }
+    track[std::size_t(t) * 3] = float(x);
+    track[std::size_t(t) * 3 + 1] = float(y);
+    if (down && begin < 0) begin = t;
+    if (!down && begin >= 0) {
+      planted->push_back({begin, t});
+      begin = -1;
+    }
+  }
+  if (begin >= 0) planted->push_back({begin, frames});
+  return track;
+}
+
+// Share of the truth's frames that `found` covers.
+double coverage(const std::vector<ContactInterval>& found,
+                const std::vector<ContactInterval>& truth, int frames) {
+  const auto mf = contact_mask(found, frames), mt = contact_mask(truth, frames);
+  int planted = 0, covered = 0;
+  for (int t = 0; t < frames; ++t) {
+    planted += mt[std::size_t(t)];
+    covered += mt[std::size_t(t)] && mf[std::size_t(t)];
+  }
+  return planted > 0 ? double(covered) / planted : 1.0;
+}
+
+// With eval's 0.02 rad + 0.004 body of noise (3 cm per axis here), a runner's short, rolling
+// stances read as moving: the noise's own speed is about 0.1 body heights per second after the
+// smoothing at 120 fps, 0.2 at 30 fps, against an enter threshold of 0.25. The allowance lets
+// them in; without noise it finds what the exact thresholds find.
+TEST(FootContacts, TheNoiseAllowanceFindsARunnersStancesThroughNoise) {
+  for (double fps : {30.0, 120.0}) {
+    const int frames = int(8 * fps);
+    std::vector<ContactInterval> truth;
+    const Track clean = running_foot(fps, frames, &truth);
+    const auto exact = detect(clean, frames, fps);
+    EXPECT_EQ(detect(clean, frames, fps, 2.0).size(), exact.size()) << fps << " fps";
+    EXPECT_GT(coverage(exact, truth, frames), 0.6) << fps << " fps";
+    double without = 0, with = 0;
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      Track track = clean;
+      std::mt19937_64 rng(seed);
+      std::normal_distribution<float> noise(0.0f, 3.0f);
+      for (float& v : track) v += noise(rng);
+      without += coverage(detect(track, frames, fps), truth, frames) / 5;
+      const auto found = detect(track, frames, fps, 2.0);
+      with += coverage(found, truth, frames) / 5;
+      for (const ContactInterval& c : found)  // nothing in the air (a stance may come in two)
+        EXPECT_TRUE(std::any_of(
+            truth.begin(), truth.end(),
+            [&](const ContactInterval& u) { return u.begin < c.end && c.begin < u.end; }))
+            << fps << " fps, seed " << seed << ": [" << c.begin << ", " << c.end << ")";
+    }
+    std::printf("%3.0f fps: stance frames found, exact thresholds %.0f %%, allowance 2 %.0f %%\n",
+                fps, 100 * without, 100 * with);
+    EXPECT_GT(with, without + 0.1) << fps << " fps";
+    EXPECT_GT(with, 0.9) << fps << " fps";
+  }
+}
+
+// A noise-free track has no noise to allow for: the same contacts with and without the allowance.
+TEST(FootContacts, TheNoiseAllowanceLeavesANoiseFreeWalkAsItWas) {
+  for (double fps : {24.0, 30.0, 60.0, 120.0}) {
+    const int frames = int(5 * fps);
+    std::vector<ContactInterval> truth;
+    const Track track = walking_foot(fps, frames, &truth);
+    const auto exact = detect(track, frames, fps), allowed = detect(track, frames, fps, 2.0);
+    ASSERT_EQ(exact.size(), allowed.size()) << fps << " fps";
+    for (std::size_t k = 0; k < exact.size(); ++k) {
+      EXPECT_EQ(exact[k].begin, allowed[k].begin) << fps << " fps";
+      EXPECT_EQ(exact[k].end, allowed[k].end) << fps << " fps";
+    }
+  }
+}
+
+// With eval's noise (3 cm per axis) and the lock's allowance, a foot gliding just above the floor
+// at swing speed (1 body height per second) is never planted, at 120 and 30 fps (its first and
+// last 0.1 s aside: the mirrored smoothing holds a clip's end frames still, noise or not).
+// Limit: at 30 fps, where this noise reads as 0.2 body heights per second, a glide at 0.6 gets
+// contacts of 2-3 frames (README "Feet", "Contacts").
+TEST(FootContacts, TheNoiseAllowancePlantsNoFootAtSwingSpeed) {
+  for (double fps : {30.0, 120.0}) {
+    const int frames = int(4 * fps);
+    Track track(std::size_t(frames) * 3);
+    for (int t = 0; t < frames; ++t) {
+      track[std::size_t(t) * 3] = float(170.0 * t / fps);
+      track[std::size_t(t) * 3 + 1] = 8.0f;
+    }
+    const int start = int(std::lround(0.1 * fps));
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      Track noisy = track;
+      std::mt19937_64 rng(seed);
+      std::normal_distribution<float> noise(0.0f, 3.0f);
+      for (float& v : noisy) v += noise(rng);
+      for (const ContactInterval& c : detect(noisy, frames, fps, 2.0))
+        EXPECT_TRUE(c.end <= start || c.begin >= frames - start)
+            << fps << " fps, seed " << seed << ": [" << c.begin << ", " << c.end << ")";
+    }
+  }
+}
+
 // Clips shorter than the window that joins broken contacts (a 7-frame cut at 120 fps): a foot
 // resting on the floor and lifting before the end gives one contact or none, and no crash (the
 // join once looked at the previous contact when there was none).
@@ -151,6 +273,9 @@ TEST(FootContacts, RejectsBadParameters) {
   job.frame_time = 1.0 / 120;
   job.body_height = -1;
   EXPECT_NE(job.validate().message().find("body_height"), std::string::npos);
+  job.body_height = 170;
+  job.params.noise_allowance = -1;
+  EXPECT_NE(job.validate().message().find("noise_allowance"), std::string::npos);
 }
 
 TEST(FootContacts, FindsFeetByNameOrAsTheLowestLeaves) {
