@@ -39,13 +39,13 @@ std::vector<float> ankle_tracks(const Clip& clip, const std::vector<FootChain>& 
 // Contacts [leg] of the ankle tracks; false for a flat skeleton (no height).
 bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs,
                    const std::vector<float>& ankles,
-                   std::vector<std::vector<ContactInterval>>& contacts) {
+                   std::vector<std::vector<ContactInterval>>& contacts, double allowance) {
   FootContactJob job;
   job.feet = {ankles.data(), clip.frames, int(legs.size())};
   job.frame_time = clip.frame_time;
   job.body_height = body_height(*clip.skeleton);
   job.contacts = &contacts;
-  job.params.noise_allowance = kContactNoiseAllowance;
+  job.params.noise_allowance = allowance;
   return job.run().ok();
 }
 
@@ -54,7 +54,7 @@ bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs,
 void widen_by_filtered(ClipFeet& feet, const Clip& filtered) {
   const std::vector<float> ankles = ankle_tracks(filtered, feet.legs);
   std::vector<std::vector<ContactInterval>> found;
-  if (ankles.empty() || !find_contacts(filtered, feet.legs, ankles, found)) return;
+  if (ankles.empty() || !find_contacts(filtered, feet.legs, ankles, found, 0)) return;
   const double reach = kWidenReach * body_height(*filtered.skeleton);
   const std::size_t N = feet.legs.size();
   std::vector<Vec3> track(std::size_t(filtered.frames));
@@ -85,7 +85,8 @@ ClipFeet detect_feet(const Clip& clip) {
   std::vector<float> ankles(std::size_t(clip.frames) * L * 3);
   for (std::size_t i = 0; i < std::size_t(clip.frames) * L; ++i)
     std::copy_n(&feet.anchors[i * 6], 3, &ankles[i * 3]);
-  if (!find_contacts(clip, feet.legs, ankles, feet.contacts)) return {};  // a flat skeleton
+  if (!find_contacts(clip, feet.legs, ankles, feet.contacts, kContactNoiseAllowance))
+    return {};  // a flat skeleton
   return feet;
 }
 

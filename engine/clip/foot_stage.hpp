@@ -21,7 +21,10 @@ namespace mocap::engine {
 constexpr double kWidenReach = 0.02;
 // The lock's contact detector lets a foot enter a contact at up to this many times its track's
 // noise speed above the enter threshold (FootContactParams::noise_allowance; README "Feet",
-// "Contacts", says how it was chosen). The skating metric's contacts use none.
+// "Contacts", says how it was chosen). The skating metric's contacts use none, nor does the
+// widening's detector on the filtered motion, whose noise the filter removed (with the allowance
+// there too, eval's report is the same but for one skating figure in the fourth digit, and the
+// stage costs one more noise estimate per leg).
 constexpr double kContactNoiseAllowance = 2;
 
 struct ClipFeet {
