@@ -52,27 +52,6 @@ double horizontal_noise(const std::vector<Vec3>& track) {
   return largest;
 }
 
-// 2 sum_r ((g(r+1) - g(r-1)) / 2)^2 for the normalized taps g of smooth() at sigma frames (the
-// identity below sigma 0.5): the squared central-difference speed per frame^2 of white noise of
-// unit variance per horizontal axis.
-double smoothed_speed_gain(double sigma) {
-  if (sigma < 0.5) return 2 * 0.5;  // ((e[t+1] - e[t-1]) / 2)^2 has variance 1/2 per axis
-  const int reach = int(std::ceil(3 * sigma));
-  std::vector<double> g(std::size_t(2 * reach + 3), 0.0);  // g[r + reach + 1], zero outside
-  double sum = 0;
-  for (int r = -reach; r <= reach; ++r)
-    sum += g[std::size_t(r + reach + 1)] = std::exp(-0.5 * r * r / (sigma * sigma));
-  double gain = 0;
-  for (int r = -reach - 1; r <= reach + 1; ++r) {
-    const auto at = [&](int u) {
-      return u < -reach - 1 || u > reach + 1 ? 0.0 : g[std::size_t(u + reach + 1)] / sum;
-    };
-    const double d = (at(r - 1) - at(r + 1)) / 2;
-    gain += d * d;
-  }
-  return 2 * gain;
-}
-
 std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootContactParams& p,
                                     double frame_time, double height) {
   const int n = int(track.size());
@@ -149,6 +128,24 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
 }
 
 }  // namespace
+
+double smoothed_speed_gain(double sigma) {
+  if (sigma < 0.5) return 2 * 0.5;  // ((e[t+1] - e[t-1]) / 2)^2 has variance 1/2 per axis
+  const int reach = int(std::ceil(3 * sigma));
+  std::vector<double> g(std::size_t(2 * reach + 3), 0.0);  // g[r + reach + 1], zero outside
+  double sum = 0;
+  for (int r = -reach; r <= reach; ++r)
+    sum += g[std::size_t(r + reach + 1)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  double gain = 0;
+  for (int r = -reach - 1; r <= reach + 1; ++r) {
+    const auto at = [&](int u) {
+      return u < -reach - 1 || u > reach + 1 ? 0.0 : g[std::size_t(u + reach + 1)] / sum;
+    };
+    const double d = (at(r - 1) - at(r + 1)) / 2;
+    gain += d * d;
+  }
+  return 2 * gain;
+}
 
 Status FootContactParams::validate() const {
   const double values[] = {enter_height, exit_height, enter_speed, exit_speed, min_seconds};

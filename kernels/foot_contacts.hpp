@@ -64,6 +64,13 @@ struct FootContactParams {
   Status validate() const;
 };
 
+// The squared central-difference speed per frame^2, (s[t+1] - s[t-1])^2 / 4 summed over the two
+// horizontal axes, that white noise of unit variance per axis has after the detector's Gaussian
+// smoothing of sigma frames (taps g, normalized; none below 0.5 frames):
+// 2 sum_r ((g(r+1) - g(r-1)) / 2)^2, within 2 % of 1 / (2 sqrt(pi) sigma^3) from 4.8 frames
+// (the central difference differentiates less than the derivative at narrower widths).
+double smoothed_speed_gain(double sigma);
+
 struct FootContactJob {
   FootContactParams params;
   TranslationView feet;  // [F][N][3] global positions of N foot points, Y up
