@@ -6,6 +6,7 @@
 #include <map>
 
 #include "core/format.hpp"
+#include "kernels/median.hpp"
 #include "kernels/point_smoothing.hpp"
 
 namespace mocap {
@@ -34,8 +35,9 @@ std::vector<Vec3> smooth(const std::vector<Vec3>& track, double sigma) {
 }
 
 // The per-frame noise of a track's horizontal axes (white noise of std n has second differences
-// of std sqrt(6) n): 1.4826 MAD / sqrt(6) of the second differences, the larger of x and z. The
-// median looks at the frames where the foot moves smoothly (most of a clip), not at its swings.
+// of std sqrt(6) n): 1.4826 MAD / sqrt(6) of the second differences, the larger of x and z
+// (kernels/median.hpp's median: one selection pass on long clips). The median looks at the
+// frames where the foot moves smoothly (most of a clip), not at its swings.
 double horizontal_noise(const std::vector<Vec3>& track) {
   const std::size_t n = track.size();
   if (n < 3) return 0;
@@ -46,8 +48,7 @@ double horizontal_noise(const std::vector<Vec3>& track) {
       const auto at = [&](std::size_t u) { return axis == 0 ? track[u].x : track[u].z; };
       d[t - 1] = std::abs(at(t + 1) - 2 * at(t) + at(t - 1));
     }
-    std::nth_element(d.begin(), d.begin() + std::ptrdiff_t(d.size() / 2), d.end());
-    largest = std::max(largest, 1.4826 * d[d.size() / 2] / std::sqrt(6.0));
+    largest = std::max(largest, 1.4826 * median(d) / std::sqrt(6.0));
   }
   return largest;
 }
