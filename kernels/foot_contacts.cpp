@@ -64,7 +64,8 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
   // 1.25 noise / (2 pi^(1/4) sigma^1.5 frame_time)), at most max_smoothing_seconds.
   double sigma = p.smoothing_seconds / frame_time;
   const double allowed = p.noise_speed_fraction * p.enter_speed * height;
-  const double noise = allowed > 0 ? horizontal_noise(track) : 0;
+  // The track's noise, per frame (file units), when either rule reads it.
+  const double noise = allowed > 0 || p.noise_allowance > 0 ? horizontal_noise(track) : 0;
   if (noise > 0 && allowed > 0) {
     const double needed =
         std::pow(1.25 * noise / (2 * std::pow(kPi, 0.25) * frame_time * allowed), 2.0 / 3.0);
@@ -78,7 +79,7 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
   // "Contacts": raising both held lift-offs planted and cost rotations at low noise).
   double enter_speed = p.enter_speed, exit_speed = p.exit_speed;
   if (p.noise_allowance > 0) {
-    const double relative = horizontal_noise(track) / height;
+    const double relative = noise / height;
     const double e2 = relative * relative * smoothed_speed_gain(sigma) / (frame_time * frame_time);
     const double allowance = p.noise_allowance * p.noise_allowance * e2;
     enter_speed = std::sqrt(enter_speed * enter_speed + allowance);
@@ -132,17 +133,18 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
 
 double smoothed_speed_gain(double sigma) {
   if (sigma < 0.5) return 2 * 0.5;  // ((e[t+1] - e[t-1]) / 2)^2 has variance 1/2 per axis
-  const int reach = int(std::ceil(3 * sigma));
-  std::vector<double> g(std::size_t(2 * reach + 3), 0.0);  // g[r + reach + 1], zero outside
+  const std::vector<double> taps = smoothing_taps(sigma);
+  const int reach = int(taps.size() / 2);
   double sum = 0;
-  for (int r = -reach; r <= reach; ++r)
-    sum += g[std::size_t(r + reach + 1)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  for (double w : taps) sum += w;
+  // g(u) = taps[u + reach] / sum inside the taps, 0 outside; d(r) = (g(r-1) - g(r+1)) / 2 is
+  // nonzero for |r| <= reach + 1.
+  const auto g = [&](int u) {
+    return u < -reach || u > reach ? 0.0 : taps[std::size_t(u + reach)] / sum;
+  };
   double gain = 0;
   for (int r = -reach - 1; r <= reach + 1; ++r) {
-    const auto at = [&](int u) {
-      return u < -reach - 1 || u > reach + 1 ? 0.0 : g[std::size_t(u + reach + 1)] / sum;
-    };
-    const double d = (at(r - 1) - at(r + 1)) / 2;
+    const double d = (g(r - 1) - g(r + 1)) / 2;
     gain += d * d;
   }
   return 2 * gain;

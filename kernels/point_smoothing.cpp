@@ -6,14 +6,21 @@
 
 namespace mocap {
 
+std::vector<double> smoothing_taps(double sigma) {
+  const int reach = int(std::ceil(3 * sigma));
+  std::vector<double> taps(std::size_t(2 * reach + 1));
+  for (int r = -reach; r <= reach; ++r)
+    taps[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  return taps;
+}
+
 std::vector<Vec3> smooth_mirrored(std::span<const Vec3> points, double sigma) {
   const int n = int(points.size());
   if (n < 2) return {points.begin(), points.end()};
-  const int reach = int(std::ceil(3 * sigma));
-  std::vector<double> mask(std::size_t(2 * reach + 1));
+  const std::vector<double> mask = smoothing_taps(sigma);
+  const int reach = int(mask.size() / 2);
   double sum = 0;
-  for (int r = -reach; r <= reach; ++r)
-    sum += mask[std::size_t(r + reach)] = std::exp(-0.5 * r * r / (sigma * sigma));
+  for (double w : mask) sum += w;  // in the order r = -R..R, as before
   std::vector<Vec3> out(points.size());
   // Away from the ends the loops run tap by tap over all frames at once, on planes: each frame's
   // sum still takes its taps in the order r = -R..R (the same additions, the same bits), and the

@@ -15,6 +15,9 @@
 
 namespace mocap {
 
+// The taps g(r), r = -R..R, unnormalized, of the smoothing at sigma frames (> 0).
+std::vector<double> smoothing_taps(double sigma);
+
 // sigma in frames (> 0); a curve of one point is returned as it is.
 std::vector<Vec3> smooth_mirrored(std::span<const Vec3> points, double sigma);
 
