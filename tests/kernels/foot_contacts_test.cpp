@@ -25,25 +25,30 @@ TensorView<const float, 3> view(const Track& t, int frames, int points) {
   return {t.data(), frames, points};
 }
 
-// A walking foot at `fps`: planted for 0.6 s, swinging (up to 10 cm high, 70 cm forward) for
-// 0.4 s, repeated. Units: cm, body height 170.
-Track walking_foot(double fps, int frames, std::vector<ContactInterval>* planted) {
+// A foot stepping at `fps`: each cycle it stands for `stance` seconds, rolling forward at `roll`
+// cm/s, then swings `stride` cm forward and up to `lift` cm high. Units: cm, body height 170.
+struct Gait {
+  double cycle, stance, stride, lift, roll;
+};
+
+Track stepping_foot(const Gait& gait, double fps, int frames,
+                    std::vector<ContactInterval>* planted) {
   Track track(std::size_t(frames) * 3);
-  const double cycle = 1.0, stance = 0.6;
   int begin = -1;
   for (int t = 0; t < frames; ++t) {
-    const double time = t / fps, phase = std::fmod(time, cycle);
-    const int steps = int(time / cycle);
-    double x = 70.0 * steps, y = 8.0;
-    const bool down = phase < stance;
-    if (!down) {
-      const double s = (phase - stance) / (cycle - stance);  // 0..1 through the swing
-      x += 70.0 * (0.5 - 0.5 * std::cos(kPi * s));
-      y += 10.0 * std::sin(kPi * s);
+    const double time = t / fps, phase = std::fmod(time, gait.cycle);
+    const int steps = int(time / gait.cycle);
+    double x = (gait.stride + gait.roll * gait.stance) * steps, y = 8.0;
+    const bool down = phase < gait.stance;
+    if (down) {
+      x += gait.roll * phase;
+    } else {
+      const double s = (phase - gait.stance) / (gait.cycle - gait.stance);  // 0..1 of the swing
+      x += gait.roll * gait.stance + gait.stride * (0.5 - 0.5 * std::cos(kPi * s));
+      y += gait.lift * std::sin(kPi * s);
     }
     track[std::size_t(t) * 3] = float(x);
     track[std::size_t(t) * 3 + 1] = float(y);
-    track[std::size_t(t) * 3 + 2] = 0.0f;
     if (down && begin < 0) begin = t;
     if (!down && begin >= 0) {
       planted->push_back({begin, t});
@@ -52,6 +57,11 @@ Track walking_foot(double fps, int frames, std::vector<ContactInterval>* planted
   }
   if (begin >= 0) planted->push_back({begin, frames});
   return track;
+}
+
+// A walking foot: planted for 0.6 s, swinging (up to 10 cm high, 70 cm forward) for 0.4 s.
+Track walking_foot(double fps, int frames, std::vector<ContactInterval>* planted) {
+  return stepping_foot({1.0, 0.6, 70.0, 10.0, 0.0}, fps, frames, planted);
 }
 
 std::vector<ContactInterval> detect(const Track& track, int frames, double fps,
@@ -119,35 +129,10 @@ TEST(FootContacts, EvalsNoiseDoesNotChatterAtAnyFrameRate) {
   }
 }
 
-// A running foot at `fps`: planted for 0.12 s while it rolls forward at 0.12 body heights per
-// second (as the shared clips' runs do, 02_03), then 0.5 s in the air, 150 cm forward and up to 30
-// cm high. Units: cm, body height 170.
+// A running foot: planted for 0.12 s while it rolls forward at 0.12 body heights per second (as
+// the shared clips' runs do, 02_03), then 0.5 s in the air, 150 cm forward and up to 30 cm high.
 Track running_foot(double fps, int frames, std::vector<ContactInterval>* planted) {
-  Track track(std::size_t(frames) * 3);
-  const double cycle = 0.62, stance = 0.12, roll = 0.12 * 170;
-  int begin = -1;
-  for (int t = 0; t < frames; ++t) {
-    const double time = t / fps, phase = std::fmod(time, cycle);
-    const int steps = int(time / cycle);
-    double x = (150.0 + roll * stance) * steps, y = 8.0;
-    const bool down = phase < stance;
-    if (down) {
-      x += roll * phase;
-    } else {
-      const double s = (phase - stance) / (cycle - stance);
-      x += roll * stance + 150.0 * (0.5 - 0.5 * std::cos(kPi * s));
-      y += 30.0 * std::sin(kPi * s);
-    }
-    track[std::size_t(t) * 3] = float(x);
-    track[std::size_t(t) * 3 + 1] = float(y);
-    if (down && begin < 0) begin = t;
-    if (!down && begin >= 0) {
-      planted->push_back({begin, t});
-      begin = -1;
-    }
-  }
-  if (begin >= 0) planted->push_back({begin, frames});
-  return track;
+  return stepping_foot({0.62, 0.12, 150.0, 30.0, 0.12 * 170}, fps, frames, planted);
 }
 
 // Share of the truth's frames that `found` covers.
