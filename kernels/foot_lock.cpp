@@ -52,6 +52,61 @@ Quat turn_between(double c0, double c1, Vec3 n) {
   return {ch, sh * n.x, sh * n.y, sh * n.z};
 }
 
+// The frames where the filtered knee bends to the far side of the clip's own bend (header, "Bend
+// side"): out[t] = 1 where touched[t] and the bend-plane normal in the thigh's frame, h(t) = o_k x
+// (q_k(t) o_a) (o_k, o_a the knee's and the ankle's local offsets, or their translations where
+// they have them; q_k the knee's local rotation), points against h at the frame where the knee
+// bends most, among every kBendSideStride-th frame (a bend lasts longer). Returns that h, unit;
+// zero, and out all 0, when the knee never bends kBendSideMinBend there: no frame tells the side.
+Vec3 hyperextended_frames(RotationView rotations, TranslationView translations,
+                          std::span<const Vec3> offsets, std::span<const std::uint8_t> translated,
+                          const FootChain& leg, std::span<const std::uint8_t> touched,
+                          std::span<std::uint8_t> out) {
+  constexpr int kBendSideStride = 4;
+  std::fill(out.begin(), out.end(), std::uint8_t{0});
+  const auto local = [&](int t, int j) {
+    return !translated.empty() && translated[std::size_t(j)] != 0 ? load_vec3(translations.at(t, j))
+                                                                  : offsets[std::size_t(j)];
+  };
+  const auto shin_in_thigh = [&](int t) {
+    return rotate_unit(load_quat(rotations.at(t, leg.knee)), local(t, leg.ankle));
+  };
+  Vec3 reference{};
+  double most = -std::cos(kBendSideMinBend);  // the interior angle's cosine at that bend
+  for (int t = 0; t < rotations.frames; t += kBendSideStride) {
+    const Vec3 thigh = local(t, leg.knee), shin = shin_in_thigh(t);
+    const double lengths = norm(thigh) * norm(shin);
+    if (!(lengths > 0)) continue;
+    const double c = -dot(thigh, shin) / lengths;  // the interior angle's cosine
+    if (c > most) {
+      most = c;
+      reference = cross(thigh, shin);
+    }
+  }
+  if (norm(reference) == 0) return {};
+  for (int t = 0; t < rotations.frames; ++t)
+    if (touched[std::size_t(t)])
+      out[std::size_t(t)] = dot(cross(local(t, leg.knee), shin_in_thigh(t)), reference) < 0;
+  return (1 / norm(reference)) * reference;
+}
+
+// The knee's turn axis (header, "Bend side"): the bend plane's normal `plane` (unit, on the
+// clip's side) where the filtered knee bends at least kBendSideMinBend; below, blended by a
+// smoothstep of the bend into the clip's hinge (unit, in the thigh's frame: global through the
+// hip's rotation), made perpendicular to the shin, which a straight leg's noisy plane lacks.
+// Without a hinge (zero), the plane's normal.
+Vec3 knee_axis(Vec3 plane, double bend, Vec3 hinge, Quat hip_rotation, Vec3 shin) {
+  const double w = bend >= kBendSideMinBend ? 1.0 : std::max(0.0, bend) / kBendSideMinBend;
+  if (w >= 1 || norm(hinge) == 0) return plane;
+  Vec3 axis = rotate_unit(hip_rotation, hinge);
+  const double ss = dot(shin, shin);
+  if (ss > 0) axis = axis - (dot(axis, shin) / ss) * shin;
+  const double s = w * w * (3 - 2 * w);
+  const Vec3 n = s * plane + (1 - s) * axis;
+  const double length = norm(n);
+  return length > 0 ? (1 / length) * n : plane;
+}
+
 double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
@@ -328,6 +383,9 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
   const std::vector<FootChain>& chains = s.chains;
   const int frames = rotations.frames, joints = int(parents.size());
   const std::size_t leg_count = chains.size(), F = std::size_t(frames);
+  const auto backwards = [&](std::size_t l, int t) {
+    return s.hyperextended[l * F + std::size_t(t)] != 0;
+  };
   std::vector<int>&frame_of = s.frame_of, &index_of = s.index_of;  // plane index <-> frame
   frame_of.clear();
   index_of.assign(F, -1);
@@ -491,12 +549,15 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
       geometry_of(l, begin, m, false);
       const double* theta_f = leg_plane(l, kThetaF);
       std::copy(theta_f, theta_f + m, s.theta_f.data() + l * n + begin);
+      for (std::size_t k = 0; k < m; ++k)
+        if (backwards(l, frame_of[begin + k])) s.theta_f[l * n + begin + k] = kPi;
       Vec3& first = s.first_normals[l];
       if (norm(first) == 0) {
         const double *bent = leg_plane(l, kBent), *nrm = leg_plane(l, kNormal);
         for (std::size_t k = 0; k < m; ++k)
           if (bent[k] != 0) {
-            first = {nrm[k], nrm[stride + k], nrm[2 * stride + k]};
+            first = (backwards(l, frame_of[begin + k]) ? -1.0 : 1.0) *
+                    Vec3{nrm[k], nrm[stride + k], nrm[2 * stride + k]};
             break;
           }
       }
@@ -686,10 +747,24 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
       Vec3& nrm = carried[l];
       for (std::size_t k = 0; k < m; ++k) {
         const int t = frame_of[begin + k];
-        if (g.bent[k] != 0) nrm = {g.normal[k], g.normal[stride + k], g.normal[2 * stride + k]};
-        normal[k] = nrm.x;
-        normal[stride + k] = nrm.y;
-        normal[2 * stride + k] = nrm.z;
+        const bool back = backwards(l, t);
+        if (g.bent[k] != 0)
+          nrm = (back ? -1.0 : 1.0) *
+                Vec3{g.normal[k], g.normal[stride + k], g.normal[2 * stride + k]};
+        if (back) {  // header, "Bend side": bent from straight, on the clip's side
+          g.cos_f[k] = -1;
+          g.theta_f[k] = kPi;
+        }
+        Vec3 axis = nrm;
+        if (norm(s.hinges[l]) > 0) {
+          const double* r = rot(leg.hip);
+          axis = knee_axis(nrm, kPi - g.theta_f[k], s.hinges[l],
+                           {r[k], r[stride + k], r[2 * stride + k], r[3 * stride + k]},
+                           {g.v[k], g.v[stride + k], g.v[2 * stride + k]});
+        }
+        normal[k] = axis.x;
+        normal[stride + k] = axis.y;
+        normal[2 * stride + k] = axis.z;
         solve[k] = ik[t] && g.len[k] > 0 && g.len[stride + k] > 0;
       }
       simd::leg_knee_cosine(g.to_target, s.leg_drops.data() + l * padded + begin, g.len, cos1,
@@ -906,6 +981,18 @@ Status FootLockJob::run() const {
     }
   }
 
+  // Header, "Bend side": per leg and frame, 1 where the filtered knee is bent backwards.
+  work.hyperextended.resize(leg_count * F);
+  work.hinges.assign(leg_count, Vec3{});
+  for (std::size_t l = 0; l < leg_count; ++l)
+    work.hinges[l] = hyperextended_frames(
+        {rotations.data, rotations.frames, rotations.joints},
+        {translations.data, translations.frames, translations.joints}, offsets, translated_joints,
+        chains[l], touched, std::span(work.hyperextended.data() + l * F, F));
+  const auto backwards = [&](std::size_t l, int t) {
+    return work.hyperextended[l * F + std::size_t(t)] != 0;
+  };
+
   if (implementation == Implementation::fast) {
     lock_fast(*this, work, blend, local_stats);
     if (stats) *stats = local_stats;
@@ -989,7 +1076,7 @@ Status FootLockJob::run() const {
       const Vec3 n = cross(f.knee - f.hip, f.ankle - f.hip);
       if (norm(n) >
           1e-9 * (dot(f.knee - f.hip, f.knee - f.hip) + dot(f.ankle - f.knee, f.ankle - f.knee))) {
-        normal[l] = (1 / norm(n)) * n;
+        normal[l] = (backwards(l, t) ? -1 / norm(n) : 1 / norm(n)) * n;
         break;
       }
     }
@@ -1051,7 +1138,8 @@ Status FootLockJob::run() const {
       const LegFrame& f = leg_frames[l][std::size_t(t)];
       const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
       theta_f[std::size_t(t)] =
-          l1 > 0 && l2 > 0
+          backwards(l, t) ? kPi
+          : l1 > 0 && l2 > 0
               ? std::acos(std::clamp(dot(f.hip - f.knee, f.ankle - f.knee) / (l1 * l2), -1.0, 1.0))
               : 0.0;
       // A lowered root would drag the free legs down with it (and a leg whose lock starts next
@@ -1106,7 +1194,8 @@ Status FootLockJob::run() const {
       {
         const Vec3 c = cross(f.knee - f.hip, f.ankle - f.hip);
         const double l1 = norm(f.knee - f.hip), l2 = norm(f.ankle - f.knee);
-        if (norm(c) > 1e-9 * (l1 * l1 + l2 * l2)) n = (1 / norm(c)) * c;
+        if (norm(c) > 1e-9 * (l1 * l1 + l2 * l2))
+          n = (backwards(l, t) ? -1 / norm(c) : 1 / norm(c)) * c;
       }
       if (!ik[std::size_t(t)]) {
         delta = 0;
@@ -1127,7 +1216,8 @@ Status FootLockJob::run() const {
       const double d = std::clamp(norm(to_target), std::abs(l1 - l2) + 1e-9 * (l1 + l2),
                                   reach[l][std::size_t(t)]);
       const Vec3 thigh_back = f.hip - f.knee, shin = f.ankle - f.knee;
-      const double cos0 = std::clamp(dot(thigh_back, shin) / (l1 * l2), -1.0, 1.0);
+      const double cos0 =
+          backwards(l, t) ? -1.0 : std::clamp(dot(thigh_back, shin) / (l1 * l2), -1.0, 1.0);
       double cos1 = std::clamp((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0, 1.0);
       if (step_limit > 0) {
         // Delta = theta_1 - theta_f, kept within one step of the previous frame's (the knee
@@ -1140,7 +1230,9 @@ Status FootLockJob::run() const {
         if (limited != wanted) cos1 = std::cos(theta_f[std::size_t(t)] + limited);
         delta = limited;
       }
-      const Quat knee_turn = turn_between(cos0, cos1, n);
+      const Vec3 axis =
+          knee_axis(n, kPi - theta_f[std::size_t(t)], work.hinges[l], f.hip_rotation, shin);
+      const Quat knee_turn = turn_between(cos0, cos1, axis);
       const Vec3 bent_ankle = f.knee + rotate_unit(knee_turn, shin);
       const Quat hip_swing = rotation_between(bent_ankle - f.hip, to_target);
       const Quat hip_global = hip_swing * f.hip_rotation;

@@ -35,6 +35,18 @@
 //   Q_h. Global rotations: R_hip' = Q_h R_hip, R_knee' = Q_h Q_k R_knee, R_ankle' = R_ankle (the
 //   foot's global orientation is kept, so the toe's too), stored as local rotations of hip, knee
 //   and ankle, each on the hemisphere of the rotation it replaces.
+//   Bend side. A knee the filter leaves near straight may bend a hair backwards (noise, or a
+//   capture that holds the knee straight): n then points the other way, the IK bends the knee
+//   backwards, and where the noise flips n (or turns it sideways) from frame to frame the knee
+//   chatters about it (README "Feet", "Bend side"). The side is the clip's own: its hinge h_ref
+//   is the bend-plane normal in the thigh's frame, h(t) = o_k x (q_k(t) o_a) (the knee's and
+//   the ankle's offsets, the knee's local rotation), at the frame where the knee bends most (of
+//   every 4th frame; at least kBendSideMinBend, else none and the rule above holds). A frame
+//   with h(t) . h_ref < 0 counts as straight: n turned to the clip's side, theta0 = pi (the
+//   knee then ends at theta1 plus its small backward bend), theta_f = pi for the knee's limit.
+//   Below kBendSideMinBend of filtered bend b, the turn's axis is the normalized blend s n +
+//   (1 - s) h_ref' (s = smoothstep(b / kBendSideMinBend); h_ref' the hinge through the hip's
+//   global rotation, made perpendicular to the shin): a noisy plane gives way to the hinge.
 //   Reach. Where |T - a| > L for a planted leg, the root (the leg's top ancestor, when it carries
 //   a translation) is lowered along Y just enough for the hip to reach: a_y' = T_y +
 //   sqrt(L^2 - h^2), h the horizontal hip-target distance; by the largest drop of its legs.
@@ -69,6 +81,9 @@
 #include "kernels/implementation.hpp"
 
 namespace mocap {
+
+// Header, "Bend side": the least bend (rad) of a clip's knee that tells which side it bends to.
+inline constexpr double kBendSideMinBend = 0.2;
 
 struct FootLockParams {
   double blend_time = 0.1;   // seconds of fade in before and fade out after each contact
@@ -112,9 +127,9 @@ struct FootLockScratch {
   std::size_t plane_capacity = 0;    // doubles in `planes`
   std::vector<FootChain> chains;     // the complete legs, and their contact lists
   std::vector<const std::vector<ContactInterval>*> ankle_lists, toe_lists;
-  // [leg][frame] (flat): contact labels, D(t), locked or blending, the knee's |q(t-1) . q(t)|
-  // ([leg][frame + 1]).
-  std::vector<std::uint8_t> labels, active;
+  // [leg][frame] (flat): contact labels, D(t), locked or blending, bent backwards (header, "Bend
+  // side"), the knee's |q(t-1) . q(t)| ([leg][frame + 1]).
+  std::vector<std::uint8_t> labels, active, hyperextended;
   std::vector<Vec3> offsets;
   std::vector<double> knee_cos;
   // Per frame, or per touched frame (plane index); ik: [leg][frame] in the fast path.
@@ -125,9 +140,10 @@ struct FootLockScratch {
   // interior angle, the roots' drops (rows padded), the knee's turn (one leg at a time).
   std::vector<Vec3> anchors;
   std::vector<double> theta_f, leg_drops, turn;
-  // Per leg: the bend-plane normal carried over straight frames, the hip's rotation at frame 0,
+  // Per leg: the bend-plane normal carried over straight frames, the knee's hinge in the thigh's
+  // frame (header, "Bend side"), the hip's rotation at frame 0,
   // the knee limit's Delta(t - 1).
-  std::vector<Vec3> first_normals;
+  std::vector<Vec3> first_normals, hinges;
   std::vector<Quat> hip_rotations;
   std::vector<double> deltas;
   // One contact's anchor positions and their x, z (the pins' medians).

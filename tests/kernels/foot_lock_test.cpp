@@ -442,6 +442,70 @@ TEST(FootLock, TheKneeTurnsNoFasterThanTheInputsPeakAtAContactsEnds) {
   }
 }
 
+// A left leg that the filter leaves straight through its stance, its knee wobbling a little to
+// either side and sideways (noise about a straight leg, as on CMU's 05_02 at 0.008 rad), bent
+// forwards (+x) in its swing. There the bend plane's normal is the noise's: the lock turned the
+// knee about it, backwards on half the frames (a 43.6 rad/s knee step on that clip). Now (header,
+// "Bend side") every turn the lock gives the knee is about its hinge (x in the thigh's frame, to
+// 5 degrees), it bends no further backwards than the input, and the knee turns no faster than
+// 1.2x the input's peak; the fast path agrees with the reference.
+TEST(FootLock, AStraightKneeBendsAboutItsHingeOnTheClipsSide) {
+  const double frame_time = 1.0 / 120;
+  const int frames = 240;
+  Walk input(frames, frame_time, 1.6 * Walk::kPlantedSpeed);
+  for (int t = 0; t < frames; ++t) {
+    const double swing = std::max(0.0, std::sin(2 * kPi * t * frame_time));
+    const double sign = t % 2 == 0 ? 1 : -1;
+    store_quat(
+        exp(Vec3{0.6 * swing * swing + 0.006 * sign, 0, 0.004 * sign * (t % 3 == 0 ? -1 : 1)}),
+        input.at_rotation(t, Walk::kLeftKnee));
+  }
+  const ContactInterval contact{66, 114};  // 0.55 to 0.95 s: the knee straight
+  const double input_peak = peak_speed(input, Walk::kLeftKnee);
+  Walk locked[2] = {input, input};
+  const std::vector<FootChain> legs = walk_legs();
+  const std::vector<std::vector<ContactInterval>> contacts = {{contact}, {}};
+  for (int i = 0; i < 2; ++i) {
+    FootLockJob job;
+    job.parents = input.parents;
+    job.offsets = input.offsets;
+    job.translated_joints = input.translated;
+    job.frame_time = frame_time;
+    job.rotations = {locked[i].rotations.data(), frames, Walk::kJoints};
+    job.translations = {locked[i].translations.data(), frames, Walk::kJoints};
+    job.legs = legs;
+    job.contacts = contacts;
+    job.implementation = i == 0 ? Implementation::reference : Implementation::fast;
+    const Status s = job.run();
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  const auto knee = [&](const Walk& w, int t) {
+    return load_quat(&w.rotations[(std::size_t(t) * Walk::kJoints + Walk::kLeftKnee) * 4]);
+  };
+  double most_backwards_in = 0;
+  for (int t = 0; t < frames; ++t)
+    most_backwards_in = std::min(most_backwards_in, log(knee(input, t)).x);
+  for (int i = 0; i < 2; ++i) {
+    int turned = 0;
+    for (int t = 0; t < frames; ++t) {
+      const Vec3 turn = log(knee(locked[i], t) * inverse(knee(input, t)));  // in the thigh's frame
+      if (norm(turn) < 1e-3) continue;
+      ++turned;
+      EXPECT_LE(std::hypot(turn.y, turn.z), std::sin(5 * kPi / 180) * norm(turn))
+          << "frame " << t << ": the knee turned about (" << turn.x << ", " << turn.y << ", "
+          << turn.z << ")";
+      EXPECT_GE(log(knee(locked[i], t)).x, most_backwards_in - 1e-4) << "frame " << t;
+    }
+    EXPECT_GT(turned, 20) << "the lock should bend the straight knee: the test would be vacuous";
+    const double ratio = peak_speed(locked[i], Walk::kLeftKnee) / input_peak;
+    std::printf("%s: %d frames turned, knee peak %.2fx the input's\n",
+                i == 0 ? "reference" : "fast", turned, ratio);
+    EXPECT_LE(ratio, 1.2);
+  }
+  for (int t = 0; t < frames; ++t)
+    EXPECT_LT(geodesic(knee(locked[0], t), knee(locked[1], t)), 1e-5) << "frame " << t;
+}
+
 // The fast path (planes through kernels/simd/foot_lock_simd.hpp) against the scalar reference:
 // the same rotations and root heights to within the float they are stored in (a few ulps: the
 // two round differently, fused multiply-adds and Highway's acos), and the same statistics. Cases:
