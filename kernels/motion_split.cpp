@@ -5,6 +5,7 @@
 
 #include "core/format.hpp"
 #include "core/quaternion.hpp"
+#include "kernels/median.hpp"
 
 namespace mocap {
 
@@ -30,32 +31,54 @@ double MotionSplitParams::pose_step_threshold(double frame_time) const {
 
 namespace {
 
-// The test over step angles from `angle(t, j)`, joint by joint in order for each step.
+// The test over step angles from `angle(t, j)`, joint by joint in order for each step. The
+// thresholds rise with the clip's own steps (header, "Noise"): a joint's to kStepOverMedian x its
+// median step, the pose step's to kPoseStepOverMedian x the median pose step.
 template <typename Angle>
 std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle& angle,
                                              double frame_time, const MotionSplitParams& params,
                                              std::span<const std::uint8_t> skip) {
   std::vector<ImpossibleStep> steps;
-  const double threshold = params.step_threshold(frame_time);
-  const double pose_threshold = params.pose_step_threshold(frame_time);
+  const auto counted_joint = [&](int j) { return skip.empty() || !skip[std::size_t(j)]; };
+  std::vector<double> threshold(std::size_t(std::max(joints, 0)),
+                                params.step_threshold(frame_time));
+  double pose_threshold = params.pose_step_threshold(frame_time);
+  if (frames - 1 >= kNoiseMinSteps) {
+    std::vector<double> work(std::size_t(frames - 1)), pose(std::size_t(frames - 1), 0.0);
+    int counted = 0;
+    for (int j = 0; j < joints; ++j) {
+      if (!counted_joint(j)) continue;
+      ++counted;
+      for (int t = 0; t + 1 < frames; ++t) {
+        work[std::size_t(t)] = angle(t, j);
+        pose[std::size_t(t)] += std::min(work[std::size_t(t)], kPoseStepJointClamp);
+      }
+      threshold[std::size_t(j)] =
+          std::max(threshold[std::size_t(j)], kStepOverMedian * median(work));
+    }
+    if (counted > 0)
+      pose_threshold = std::max(pose_threshold, kPoseStepOverMedian * median(pose) / counted);
+  }
   for (int t = 0; t + 1 < frames; ++t) {
     ImpossibleStep worst{t, -1, 0.0, 0.0};
     double clamped_sum = 0;
     int counted = 0;
+    bool over = false;
     for (int j = 0; j < joints; ++j) {
-      if (!skip.empty() && skip[std::size_t(j)]) continue;
+      if (!counted_joint(j)) continue;
       const double d = angle(t, j);
       if (d > worst.angle || worst.joint < 0) {
         worst.joint = j;
         worst.angle = d;
       }
+      over = over || d > threshold[std::size_t(j)];
       clamped_sum += std::min(d, kPoseStepJointClamp);
       ++counted;
     }
     if (counted == 0) continue;
     worst.pose_step = clamped_sum / counted;
     const bool body_jump = counted >= kPoseStepMinJoints && worst.pose_step > pose_threshold;
-    if (worst.angle > threshold || body_jump) steps.push_back(worst);
+    if (over || body_jump) steps.push_back(worst);
   }
   return steps;
 }

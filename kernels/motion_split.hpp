@@ -26,6 +26,17 @@
 // rather than real motion being cut (README "eval" has the measurements). The pose step needs a
 // body: with fewer than kPoseStepMinJoints joints counted, one limb swinging or one joint popping
 // is a large share of the mean, so the rule is not applied.
+//
+// Noise. Sensor noise turns every joint at every step: white noise of sigma rad per axis turns a
+// joint by about 2.3 sigma a step, and the pose step by as much, so from about 0.09 rad every
+// step's pose step passes min_pose_step, and at 0.24 rad one joint step in 270 passes 1.25 rad:
+// the clip would be cut into pieces too short to filter. A jump stands out from the clip's own
+// steps, so with at least kNoiseMinSteps steps a joint's threshold is at least kStepOverMedian x
+// its median step and the pose step's at least kPoseStepOverMedian x the median pose step.
+// Noise's steps spread little around their median (the pose step is a mean over joints; one
+// joint's step, Maxwell-distributed, exceeds 4x its median with probability about 3e-8), and a
+// real capture's medians are far below the thresholds, so its cuts do not change (README
+// "eval", "Noise and the split", has the measurements).
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -51,6 +62,11 @@ struct MotionSplitParams {
 inline constexpr double kPoseStepJointClamp = 1.0;
 // The pose step rule applies to clips with at least this many (not skipped) joints.
 inline constexpr int kPoseStepMinJoints = 10;
+// Header, "Noise": the thresholds' floors as multiples of the clip's median steps, applied from
+// this many steps (fewer, and one jump would be much of the median).
+inline constexpr double kStepOverMedian = 4.0;
+inline constexpr double kPoseStepOverMedian = 1.5;
+inline constexpr int kNoiseMinSteps = 8;
 
 // One impossible step: frame t -> t + 1, at its fastest joint.
 struct ImpossibleStep {

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "kernels/median.hpp"
+
 namespace mocap {
 
 double pop_detour(const Quat& before, const Quat& at, const Quat& after) {
@@ -35,7 +37,8 @@ Status PopDetourJob::run() const {
   if (Status s = validate(); !s) return s;
   const int F = rotations.frames, J = rotations.joints;
   const int end = joint_end < 0 ? J : joint_end;
-  std::vector<double> step(std::size_t(std::max(F - 1, 0))), detour(std::size_t(std::max(F, 0)));
+  std::vector<double> step(std::size_t(std::max(F - 1, 0))), detour(std::size_t(std::max(F, 0))),
+      work;
   for (int j = joint_begin; j < end; ++j) {
     if (!skip.empty() && skip[std::size_t(j)]) continue;
     for (int t = 0; t + 1 < F; ++t)
@@ -46,9 +49,15 @@ Status PopDetourJob::run() const {
       detour[std::size_t(t)] = pop_detour(
           step[std::size_t(t - 1)], step[std::size_t(t)],
           geodesic(load_quat(rotations.at(t - 1, j)), load_quat(rotations.at(t + 1, j))));
+    // Header, "Noise": at least kDetourOverMedian x the joint's median detour.
+    double limit = threshold;
+    if (F - 2 >= kNoiseMinSteps) {
+      work.assign(detour.begin() + 1, detour.begin() + (F - 1));
+      limit = std::max(limit, kDetourOverMedian * median(work));
+    }
     for (int t = 2; t + 2 < F; ++t) {
       const double e = detour[std::size_t(t)];
-      if (!(e > threshold) || e < detour[std::size_t(t - 1)] || !(e > detour[std::size_t(t + 1)]))
+      if (!(e > limit) || e < detour[std::size_t(t - 1)] || !(e > detour[std::size_t(t + 1)]))
         continue;
       flags[std::size_t(t) * std::size_t(J) + std::size_t(j)] = 1;
     }

@@ -18,6 +18,10 @@
 // left to find_pops.
 // Calibrated with `eval --pop-stage repair` at 30 and 24 fps on ../shared/data/bvh (README "Pops
 // and garbage joints").
+// Noise. Sensor noise gives every sample a detour (white noise of sigma rad per axis: a joint's
+// median E about 2 sigma), so under heavy noise the threshold flagged noise: with at least
+// kNoiseMinSteps detours, a joint's threshold is at least kDetourOverMedian x its median E. A
+// capture's median E is far below (README "Noise and the split"), so its flags do not change.
 #include <cstdint>
 #include <span>
 
@@ -30,6 +34,7 @@ namespace mocap {
 
 inline constexpr double kPopDetour = 0.6;  // rad, at kPopDetourFps and above
 inline constexpr double kPopDetourFps = 30;
+inline constexpr double kDetourOverMedian = 4.0;  // header, "Noise"
 // The threshold at a frame time (s): kPopDetour at kPopDetourFps and above; below, scaled by
 // (kPopDetourFps x frame_time)^2, since a real motion's detour is the turn of its velocity over a
 // frame, which grows as the square of the frame time (a pop's does not).

@@ -5,12 +5,14 @@
 
 #include <random>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "core/quaternion.hpp"
 #include "io/bvh_reader.hpp"
 #include "kernels/joint_quality.hpp"
 #include "kernels/motion_split.hpp"
+#include "kernels/noise_model.hpp"
 #include "tests/test_support.hpp"
 
 namespace mocap {
@@ -127,6 +129,36 @@ TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrameAtThirtyFps) {
   EXPECT_GE(by_pose_only, 5);  // what the per-joint rule alone missed
 }
 
+// The shared clips with eval's gaussian noise (0.03, 0.08 and 0.12 rad per axis): the noisy
+// clip's cuts are the clean clip's at 120 and 30 fps (the T-pose frame, 06_14's flipping thumb),
+// as `clean` finds them, so eval's split of the clean clip is what a user's noisy clip gets.
+TEST(MotionSplit, SharedCmuClipsWithNoiseAreCutWhereTheCaptureIs) {
+  MOCAP_REQUIRE_SHARED_CLIPS();
+  for (const fs::path& file : test::shared_bvh_files()) {
+    const io::BvhReadResult r = io::read_bvh(file);
+    ASSERT_TRUE(r.clip) << file;
+    for (const int step : {1, 4}) {
+      const Clip clip = decimate(*r.clip, step);
+      const auto frames_of = [&](const std::vector<float>& rotations) {
+        std::vector<int> cut;
+        for (const ImpossibleStep& s :
+             find_impossible_steps({rotations.data(), clip.frames, clip.joints()}, clip.frame_time,
+                                   MotionSplitParams{}))
+          cut.push_back(s.frame);
+        return cut;
+      };
+      const std::vector<int> clean = frames_of(clip.rotations);
+      for (const double sigma : {0.03, 0.08, 0.12}) {
+        std::vector<float> noisy = clip.rotations;
+        add_noise(GaussianNoise{sigma, 3}, {noisy.data(), clip.frames, clip.joints()});
+        EXPECT_EQ(frames_of(noisy), clean)
+            << file.filename() << " at " << std::lround(1 / clip.frame_time) << " fps, " << sigma
+            << " rad";
+      }
+    }
+  }
+}
+
 // A synthetic whole-body jump: each of 31 joints turns 0.35 rad in one step at 30 fps, far below
 // max_step, and the step is cut; the same turn on 3 joints only is fast motion and is not.
 TEST(MotionSplit, AWholeBodyJumpIsCutWhereAFewFastJointsAreNot) {
@@ -150,6 +182,39 @@ TEST(MotionSplit, AWholeBodyJumpIsCutWhereAFewFastJointsAreNot) {
       EXPECT_TRUE(steps.empty()) << steps.size();
     }
   }
+}
+
+// Sensor noise is not a jump (header, "Noise"): eval's gaussian levels on a smooth 31-joint
+// motion cut nothing at 120 or 30 fps (before the thresholds followed the clip's own steps, from
+// about 0.09 rad every step was cut by the pose step, and at 0.24 rad and 120 fps about one step
+// in nine by a joint), while a whole-body jump of 0.6 rad per joint is still cut through 0.12 rad
+// of noise.
+TEST(MotionSplit, NoiseIsNotAJumpButAJumpThroughNoiseIsCut) {
+  const int frames = 600, joints = 31;
+  for (const double frame_time : {1.0 / 120, 1.0 / 30})
+    for (const double sigma : {0.03, 0.08, 0.12, 0.24})
+      for (const bool jump : {false, true}) {
+        if (jump && sigma > 0.12) continue;  // a 0.6 rad jump drowns in 0.24 rad of noise
+        std::mt19937_64 rng(21);
+        std::vector<float> m = test::random_motion(rng, frames, joints, 0.02);
+        if (jump)
+          for (int t = 300; t < frames; ++t)
+            for (int j = 0; j < joints; ++j) {
+              float* q = &m[(std::size_t(t) * joints + std::size_t(j)) * 4];
+              store_quat(load_quat(q) * exp(Vec3{0.6, 0, 0}), q);
+            }
+        add_noise(GaussianNoise{sigma, 7}, {m.data(), frames, joints});
+        make_hemisphere_continuous({m.data(), frames, joints});
+        const auto steps = find_impossible_steps({m.data(), frames, joints}, frame_time, {});
+        const std::string what = "sigma " + std::to_string(sigma) + ", " +
+                                 std::to_string(int(std::lround(1 / frame_time))) + " fps";
+        if (jump) {
+          ASSERT_EQ(steps.size(), 1u) << what;
+          EXPECT_EQ(steps[0].frame, 299) << what;
+        } else {
+          EXPECT_TRUE(steps.empty()) << what << ": " << steps.size() << " steps cut";
+        }
+      }
 }
 
 // A joint that flips by pi (uncaptured, Euler gimbal lock) counts at most 1 rad in the pose
