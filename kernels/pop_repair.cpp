@@ -117,10 +117,20 @@ std::vector<BlockFit> whole_window_blocks(const PopRepairParams& params) {
   return candidate_blocks(params.window(), 0, 2 * params.window(), params.max_run, true);
 }
 
+std::vector<std::vector<BlockFit>> end_window_blocks(const PopRepairParams& params) {
+  const int window = params.window();
+  std::vector<std::vector<BlockFit>> ends(std::size_t(2 * window + 1));
+  for (int p = 0; p <= 2 * window; ++p)
+    if (p != window)
+      ends[std::size_t(p)] = candidate_blocks(p, 0, 2 * window, params.max_run, true);
+  return ends;
+}
+
 void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
                      std::span<const BlockFit> whole_window, int t, ChartScratch& scratch,
                      std::span<double> residuals, std::span<double> spreads,
-                     std::span<double> fit_errors) {
+                     std::span<double> fit_errors,
+                     std::span<const std::vector<BlockFit>> end_windows) {
   const int frames = int(curve.size());
   const int window = params.window();
   std::vector<Vec3>& chart = scratch.chart;
@@ -147,12 +157,19 @@ void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
                           std::numeric_limits<double>::infinity()};
   double residual[2] = {0, 0}, spread[2] = {1, 1};
   const auto reachable = [&](int u) { return u == t || in_chart[std::size_t(u)] != 0; };
-  bool whole = lo == t - window && hi == t + window;
-  for (int u = lo; whole && u <= hi; ++u) whole = reachable(u);
+  bool in_reach = true;
+  for (int u = lo; in_reach && u <= hi; ++u) in_reach = reachable(u);
+  // A window of 2 window() + 1 samples all in reach has its candidates' moments made once: the
+  // whole window's, or a shifted one's near an end (then `whole` too: the same bits).
+  const bool centred = lo == t - window && hi == t + window;
+  const bool shifted = !centred && hi - lo == 2 * window && !end_windows.empty();
+  const bool whole = in_reach && (centred || shifted);
   std::vector<BlockFit> near_an_end;
   if (!whole) near_an_end = candidate_blocks(t, lo, hi, params.max_run, false);
   const std::span<const BlockFit> blocks =
-      whole ? whole_window : std::span<const BlockFit>(near_an_end);
+      !whole    ? std::span<const BlockFit>(near_an_end)
+      : centred ? whole_window
+                : std::span<const BlockFit>(end_windows[std::size_t(t - lo)]);
   // Blocks come x by x with y rising: each fit is the one before with one more point left
   // out, in the same order as leaving the whole block out of `all` (the same bits).
   FitSums fit;
@@ -236,10 +253,15 @@ int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
   const std::vector<BlockFit> own =
       screen ? std::vector<BlockFit>{} : pop_detail::whole_window_blocks(params);
   const std::span<const BlockFit> whole_window = screen ? screen->whole_window : own;
+  // The shifted windows' candidates near the ends, made once per screen (none without).
+  const std::span<const std::vector<BlockFit>> end_windows =
+      screen ? std::span<const std::vector<BlockFit>>(screen->end_windows)
+             : std::span<const std::vector<BlockFit>>{};
   // The residuals of the samples where `only` is nonzero (all when empty).
   const auto compute = [&](std::span<const std::uint8_t> only) {
     if (implementation == Implementation::fast) {
-      simd::pop_residuals(curve, params, residuals, spreads, fit_errors, only, whole_window);
+      simd::pop_residuals(curve, params, residuals, spreads, fit_errors, only, whole_window,
+                          end_windows);
     } else if (only.empty()) {
       pop_residuals(curve, params, residuals, spreads, fit_errors);
     } else {
@@ -247,7 +269,7 @@ int find_pops_with(std::span<const Quat> curve, const PopRepairParams& params,
       for (std::size_t t = 0; t < n; ++t)
         if (only[t])
           pop_detail::sample_residual(curve, params, whole_window, int(t), scratch, residuals,
-                                      spreads, fit_errors);
+                                      spreads, fit_errors, end_windows);
     }
   };
   int count = 0;
@@ -406,6 +428,10 @@ Status PopFindJob::validate() const {
                          std::to_string(rotations.joints) + " joints");
   if (implementation != Implementation::fast && implementation != Implementation::reference)
     return Status::error("PopFindJob: unknown implementation");
+  if (screen_weights != nullptr && screen_weights->window != params.window())
+    return Status::error("PopFindJob: screen_weights were made for a window of " +
+                         std::to_string(screen_weights->window) + ", params have " +
+                         std::to_string(params.window()));
   return params.validate();
 }
 
@@ -414,13 +440,15 @@ Status PopFindJob::run() const {
   const std::size_t F = std::size_t(rotations.frames), J = std::size_t(rotations.joints);
   std::vector<Quat> curve(F);
   std::vector<std::uint8_t> found(F);
-  const std::optional<PopScreen> weights =
-      screen ? std::optional<PopScreen>(params) : std::optional<PopScreen>();
+  const std::optional<PopScreen> own = screen && screen_weights == nullptr
+                                           ? std::optional<PopScreen>(params)
+                                           : std::optional<PopScreen>();
+  const PopScreen* weights = !screen ? nullptr : screen_weights ? screen_weights : &*own;
   for (int j = joint_begin; j < joint_stop(); ++j) {
     std::fill(found.begin(), found.end(), std::uint8_t{0});
     if (skip.empty() || skip[std::size_t(j)] == 0) {
       for (std::size_t t = 0; t < F; ++t) curve[t] = load_quat(rotations.at(int(t), j));
-      find_pops_with(curve, params, found, implementation, weights ? &*weights : nullptr);
+      find_pops_with(curve, params, found, implementation, weights);
     }
     for (std::size_t t = 0; t < F; ++t) flags[t * J + std::size_t(j)] = found[t];
   }

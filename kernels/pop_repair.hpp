@@ -90,6 +90,8 @@ void repair_pops(std::span<const Quat> curve, std::span<const std::uint8_t> flag
 
 // Detection alone: find_pops on each joint's whole curve, no output but the flags (the pipeline
 // decides whether to repair once it has seen every flag of a clip, engine/clip).
+struct PopScreen;  // kernels/pop_screen.hpp
+
 struct PopFindJob {
   PopRepairParams params;
   RotationView rotations;              // [F][J]
@@ -101,6 +103,9 @@ struct PopFindJob {
   int joint_begin = 0, joint_end = -1;
   Implementation implementation = Implementation::fast;  // of the residuals, see find_pops
   bool screen = true;                                    // find_pops' screen (the same flags)
+  // Optional: the screen's weights for `params`, made once by the caller for many jobs (slices
+  // of one joint each would otherwise make their own); null: run() makes them.
+  const PopScreen* screen_weights = nullptr;
 
   int joint_stop() const { return joint_end < 0 ? rotations.joints : joint_end; }
   Status validate() const;
@@ -160,6 +165,12 @@ struct BlockFit {
 // The candidates of a "whole" sample: window() neighbours on each side, all within kChartReach.
 std::vector<BlockFit> whole_window_blocks(const PopRepairParams& params);
 
+// The candidates, with their moments, of a sample near a clip's end whose window is shifted
+// inwards ([lo, lo + 2 window()], all within kChartReach): entry p for t = lo + p (entry
+// window(), the whole window's place, is empty). Offsets are integers, so the moments are exact
+// and these give the bits of the fits that count their own points.
+std::vector<std::vector<BlockFit>> end_window_blocks(const PopRepairParams& params);
+
 // Per-curve scratch of sample_residual: the chart and which samples are in it.
 struct ChartScratch {
   std::vector<Vec3> chart;
@@ -168,11 +179,13 @@ struct ChartScratch {
 };
 
 // residuals[t], spreads[t], fit_errors[t] of pop_residuals for one sample t; whole_window is
-// whole_window_blocks(params).
+// whole_window_blocks(params); end_windows, end_window_blocks(params) or empty (the shifted
+// windows' fits then count their points and invert their moments themselves: the same bits).
 void sample_residual(std::span<const Quat> curve, const PopRepairParams& params,
                      std::span<const BlockFit> whole_window, int t, ChartScratch& scratch,
                      std::span<double> residuals, std::span<double> spreads,
-                     std::span<double> fit_errors);
+                     std::span<double> fit_errors,
+                     std::span<const std::vector<BlockFit>> end_windows = {});
 
 }  // namespace pop_detail
 }  // namespace mocap

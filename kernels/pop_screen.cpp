@@ -15,6 +15,7 @@ PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
   const std::size_t n = offsets.size();
   usable = true;
   whole_window = pop_detail::whole_window_blocks(params);
+  end_windows = pop_detail::end_window_blocks(params);
   for (const pop_detail::BlockFit& block : whole_window) {
     const pop_detail::MomentInverse& m = block.inverse;
     // The candidates sample_residual skips, and those of tier 1, which a whole sample never

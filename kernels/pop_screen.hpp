@@ -82,6 +82,8 @@ struct PopScreen {
   std::vector<pop_detail::BlockFit> candidates;
   // pop_detail::whole_window_blocks(params): the exact fits' candidates, made once per screen.
   std::vector<pop_detail::BlockFit> whole_window;
+  // pop_detail::end_window_blocks(params): the shifted windows' near a clip's ends.
+  std::vector<std::vector<pop_detail::BlockFit>> end_windows;
   bool usable = false;  // false: a tier-0 candidate with a negative leverage (never on doubles)
 
   explicit PopScreen(const PopRepairParams& params);

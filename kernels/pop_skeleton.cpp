@@ -61,6 +61,8 @@ Status PopSkeletonJob::run() const {
   std::vector<Quat> curve(static_cast<std::size_t>(F));
   std::vector<double> spreads(static_cast<std::size_t>(F)), fit_errors(static_cast<std::size_t>(F));
   const std::vector<pop_detail::BlockFit> whole_window = pop_detail::whole_window_blocks(params);
+  const std::vector<std::vector<pop_detail::BlockFit>> end_windows =
+      pop_detail::end_window_blocks(params);
   pop_detail::ChartScratch scratch(static_cast<std::size_t>(F));
   for (int j = 0; j < J; ++j) {
     if (!needed[std::size_t(j)] || F < kPopRepairMinFrames) continue;
@@ -69,7 +71,7 @@ Status PopSkeletonJob::run() const {
     for (int t = 0; t < F; ++t)
       if (wanted[std::size_t(t) * std::size_t(J) + std::size_t(j)])
         pop_detail::sample_residual(curve, params, whole_window, t, scratch,
-                                    residual[std::size_t(j)], spreads, fit_errors);
+                                    residual[std::size_t(j)], spreads, fit_errors, end_windows);
   }
   // The size of each flagged sample's group: the joints flagged at its frame that it reaches
   // through flagged neighbours (the input flags).

@@ -15,6 +15,7 @@
 #include "kernels/motion_split.hpp"
 #include "kernels/pop_detour.hpp"
 #include "kernels/pop_repair.hpp"
+#include "kernels/pop_screen.hpp"
 #include "kernels/pop_skeleton.hpp"
 
 namespace mocap::engine {
@@ -79,7 +80,8 @@ std::span<std::uint8_t> segment_slice(std::span<std::uint8_t> clip_flags, const 
 struct SegmentPopTest {
   RotationView rotations;  // the segment
   double frame_time = 0;
-  PopRepairParams params;  // pop_params_at(frame_time)
+  PopRepairParams params;             // pop_params_at(frame_time)
+  const PopScreen* screen = nullptr;  // PopScreen(params), made once for the clip
   std::span<const int> parents;
   std::span<const std::uint8_t> flipping, garbage;  // one per joint
   const StepAngles* steps = nullptr;                // the classification's, of the whole clip
@@ -89,6 +91,7 @@ struct SegmentPopTest {
   void find() const {
     PopFindJob job;
     job.params = params;
+    job.screen_weights = screen;
     job.rotations = rotations;
     job.skip = flipping;
     job.flags = flags;
@@ -237,6 +240,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   // kPopsRepairMinFps auto repairs only a clip whose flags are many.
   std::vector<std::uint8_t> flags(std::size_t(F) * std::size_t(J), 0);
   const PopRepairParams params = pop_params_at(frame_time);
+  const PopScreen screen(params);  // once per clip: each joint's task would make its own
   const auto segment_rotations = [&](const Segment& seg) {
     return RotationSpan{rotations.data + std::size_t(seg.begin) * std::size_t(J) * 4, seg.frames(),
                         J};
@@ -247,6 +251,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     test.rotations = {part.data, part.frames, J};
     test.frame_time = frame_time;
     test.params = params;
+    test.screen = &screen;
     test.parents = parents;
     test.flipping = flipping;
     test.garbage = c.garbage;

@@ -126,7 +126,8 @@ void FitLanes(D d, std::span<const pop_detail::BlockFit> blocks, int window, con
 void PopResiduals(std::span<const Quat> curve, const PopRepairParams& params,
                   std::span<double> residuals, std::span<double> spreads,
                   std::span<double> fit_errors, std::span<const std::uint8_t> only,
-                  std::span<const pop_detail::BlockFit> whole_window) {
+                  std::span<const pop_detail::BlockFit> whole_window,
+                  std::span<const std::vector<pop_detail::BlockFit>> end_windows) {
   const hn::ScalableTag<double> d;
   const std::size_t lanes = hn::Lanes(d);
   const int frames = int(curve.size()), window = params.window();
@@ -169,8 +170,8 @@ void PopResiduals(std::span<const Quat> curve, const PopRepairParams& params,
       }
     }
     if (!whole) {
-      pop_detail::sample_residual(curve, params, blocks, t, scratch, residuals, spreads,
-                                  fit_errors);
+      pop_detail::sample_residual(curve, params, blocks, t, scratch, residuals, spreads, fit_errors,
+                                  end_windows);
       continue;
     }
     batch.push_back(t);
@@ -190,9 +191,10 @@ HWY_EXPORT(PopResiduals);
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
                    std::span<double> fit_errors, std::span<const std::uint8_t> only,
-                   std::span<const pop_detail::BlockFit> whole_window) {
+                   std::span<const pop_detail::BlockFit> whole_window,
+                   std::span<const std::vector<pop_detail::BlockFit>> end_windows) {
   HWY_DYNAMIC_DISPATCH(PopResiduals)
-  (curve, params, residuals, spreads, fit_errors, only, whole_window);
+  (curve, params, residuals, spreads, fit_errors, only, whole_window, end_windows);
 }
 
 }  // namespace mocap::simd

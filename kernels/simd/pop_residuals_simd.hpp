@@ -9,6 +9,7 @@
 // baseline) the results are the reference's to the bit (tests/kernels/pop_repair_test.cpp).
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "core/quaternion.hpp"
 #include "kernels/pop_repair.hpp"
@@ -18,10 +19,12 @@ namespace mocap::simd {
 // The contract of mocap::pop_residuals. With `only` (one entry per sample), just the samples
 // where it is nonzero are computed (each lane's arithmetic is its own, so a sample's bits do not
 // depend on which others share its batch); the others are left as they were. `whole_window`:
-// pop_detail::whole_window_blocks(params) when the caller has it (empty: made here).
+// pop_detail::whole_window_blocks(params) when the caller has it (empty: made here);
+// `end_windows`, pop_detail::end_window_blocks(params) or empty (pop_detail::sample_residual).
 void pop_residuals(std::span<const Quat> curve, const PopRepairParams& params,
                    std::span<double> residuals, std::span<double> spreads,
                    std::span<double> fit_errors, std::span<const std::uint8_t> only = {},
-                   std::span<const pop_detail::BlockFit> whole_window = {});
+                   std::span<const pop_detail::BlockFit> whole_window = {},
+                   std::span<const std::vector<pop_detail::BlockFit>> end_windows = {});
 
 }  // namespace mocap::simd

@@ -547,6 +547,48 @@ TEST(PopRepair, FastPathMatchesReferenceOnSyntheticMotion) {
   }
 }
 
+// The end samples' candidates made once (pop_detail::end_window_blocks, issue 15) against each
+// fit counting its own points and inverting its own moments: the same bits for every sample of
+// every joint, slow and fast (whose far neighbours leave the chart, so its ends take the
+// counting path), clean and noisy, for the default window and two others.
+TEST(PopRepair, EndWindowsMadeOnceGiveTheBitsOfTheirOwnFits) {
+  long end_samples = 0;
+  for (const double speed : {0.05, 0.45}) {
+    for (int noise = 0; noise < 2; ++noise) {
+      Motion m = fast_smooth_motion(23, 200, 9, speed);
+      if (noise == 1) add_noise(GaussianNoise{0.03, 5}, m.span());
+      make_hemisphere_continuous(m.span());
+      for (const PopRepairParams params :
+           {PopRepairParams{}, PopRepairParams{1, 2}, PopRepairParams{8, 4}}) {
+        const auto whole = pop_detail::whole_window_blocks(params);
+        const auto ends = pop_detail::end_window_blocks(params);
+        for (int j = 0; j < m.joints; ++j) {
+          std::vector<Quat> curve(std::size_t(m.frames));
+          for (int t = 0; t < m.frames; ++t) curve[std::size_t(t)] = m.at(t, j);
+          std::vector<double> r[2], s[2], e[2];
+          for (int k = 0; k < 2; ++k) {
+            r[k].assign(curve.size(), -1);
+            s[k].assign(curve.size(), -1);
+            e[k].assign(curve.size(), -1);
+            pop_detail::ChartScratch scratch(curve.size());
+            for (int t = 0; t < m.frames; ++t)
+              pop_detail::sample_residual(
+                  curve, params, whole, t, scratch, r[k], s[k], e[k],
+                  k == 0 ? std::span<const std::vector<pop_detail::BlockFit>>{} : ends);
+          }
+          for (int t = 0; t < m.frames; ++t) {
+            end_samples += t < params.window() || t >= m.frames - params.window();
+            EXPECT_EQ(r[0][std::size_t(t)], r[1][std::size_t(t)]) << "joint " << j << " t " << t;
+            EXPECT_EQ(s[0][std::size_t(t)], s[1][std::size_t(t)]) << "joint " << j << " t " << t;
+            EXPECT_EQ(e[0][std::size_t(t)], e[1][std::size_t(t)]) << "joint " << j << " t " << t;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(end_samples, 500);
+}
+
 // A joint that speeds up from 0.1 to 0.7 rad per frame mid-clip: from there on its neighbours
 // leave the chart's reach (5 x 0.7 > 2.5 rad), so interior samples take the scalar code between
 // samples that take the lanes.
