@@ -745,6 +745,7 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
       const double *const low = s.low.data() + l * F, *const high = s.high.data() + l * F,
                           *const gain = s.gain.data() + l * F, *const room = s.room.data() + l * F;
       Vec3& nrm = carried[l];
+      const double* const hip_rotation = rot(leg.hip);
       for (std::size_t k = 0; k < m; ++k) {
         const int t = frame_of[begin + k];
         const bool back = backwards(l, t);
@@ -755,13 +756,10 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
           g.cos_f[k] = -1;
           g.theta_f[k] = kPi;
         }
-        Vec3 axis = nrm;
-        if (norm(s.hinges[l]) > 0) {
-          const double* r = rot(leg.hip);
-          axis = knee_axis(nrm, kPi - g.theta_f[k], s.hinges[l],
-                           {r[k], r[stride + k], r[2 * stride + k], r[3 * stride + k]},
-                           {g.v[k], g.v[stride + k], g.v[2 * stride + k]});
-        }
+        const double* r = hip_rotation;
+        const Vec3 axis = knee_axis(nrm, kPi - g.theta_f[k], s.hinges[l],
+                                    {r[k], r[stride + k], r[2 * stride + k], r[3 * stride + k]},
+                                    {g.v[k], g.v[stride + k], g.v[2 * stride + k]});
         normal[k] = axis.x;
         normal[stride + k] = axis.y;
         normal[2 * stride + k] = axis.z;

@@ -43,7 +43,7 @@ std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle
   std::vector<double> threshold(std::size_t(std::max(joints, 0)),
                                 params.step_threshold(frame_time));
   double pose_threshold = params.pose_step_threshold(frame_time);
-  if (frames - 1 >= kNoiseMinSteps) {
+  if (frames - 1 >= kNoiseMinSteps) {  // else no floor: skip the pass
     std::vector<double> work(std::size_t(frames - 1)), pose(std::size_t(frames - 1), 0.0);
     int counted = 0;
     for (int j = 0; j < joints; ++j) {
@@ -54,10 +54,10 @@ std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle
         pose[std::size_t(t)] += std::min(work[std::size_t(t)], kPoseStepJointClamp);
       }
       threshold[std::size_t(j)] =
-          std::max(threshold[std::size_t(j)], kStepOverMedian * median(work));
+          std::max(threshold[std::size_t(j)], noise_floor(kStepOverMedian, work));
     }
-    if (counted > 0)
-      pose_threshold = std::max(pose_threshold, kPoseStepOverMedian * median(pose) / counted);
+    if (counted > 0)  // the pose steps' sums: their median over counted is the means'
+      pose_threshold = std::max(pose_threshold, noise_floor(kPoseStepOverMedian, pose) / counted);
   }
   for (int t = 0; t + 1 < frames; ++t) {
     ImpossibleStep worst{t, -1, 0.0, 0.0};
@@ -102,6 +102,10 @@ std::vector<ImpossibleStep> find_impossible_steps(const StepAngles& angles, doub
   return impossible_steps(
       angles.frames, angles.joints, [&](int t, int j) { return angles.at(t, j); }, frame_time,
       params, skip);
+}
+
+double noise_floor(double factor, std::vector<double>& values) {
+  return values.size() >= std::size_t(kNoiseMinSteps) ? factor * median(values) : 0.0;
 }
 
 std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps) {

@@ -68,6 +68,10 @@ inline constexpr double kStepOverMedian = 4.0;
 inline constexpr double kPoseStepOverMedian = 1.5;
 inline constexpr int kNoiseMinSteps = 8;
 
+// Header, "Noise": factor x the median of `values` (reordered), the floor such a threshold rises
+// to; 0 with fewer than kNoiseMinSteps values. Also the detour test's (kernels/pop_detour.hpp).
+double noise_floor(double factor, std::vector<double>& values);
+
 // One impossible step: frame t -> t + 1, at its fastest joint.
 struct ImpossibleStep {
   int frame = 0;

@@ -5,8 +5,6 @@
 #include <string>
 #include <vector>
 
-#include "kernels/median.hpp"
-
 namespace mocap {
 
 double pop_detour(const Quat& before, const Quat& at, const Quat& after) {
@@ -50,11 +48,9 @@ Status PopDetourJob::run() const {
           step[std::size_t(t - 1)], step[std::size_t(t)],
           geodesic(load_quat(rotations.at(t - 1, j)), load_quat(rotations.at(t + 1, j))));
     // Header, "Noise": at least kDetourOverMedian x the joint's median detour.
-    double limit = threshold;
-    if (F - 2 >= kNoiseMinSteps) {
-      work.assign(detour.begin() + 1, detour.begin() + (F - 1));
-      limit = std::max(limit, kDetourOverMedian * median(work));
-    }
+    work.clear();  // E(t) of 1 <= t < F - 1
+    if (F > 2) work.assign(detour.begin() + 1, detour.begin() + (F - 1));
+    const double limit = std::max(threshold, noise_floor(kDetourOverMedian, work));
     for (int t = 2; t + 2 < F; ++t) {
       const double e = detour[std::size_t(t)];
       if (!(e > limit) || e < detour[std::size_t(t - 1)] || !(e > detour[std::size_t(t + 1)]))

@@ -428,10 +428,13 @@ Status PopFindJob::validate() const {
                          std::to_string(rotations.joints) + " joints");
   if (implementation != Implementation::fast && implementation != Implementation::reference)
     return Status::error("PopFindJob: unknown implementation");
-  if (screen_weights != nullptr && screen_weights->window != params.window())
+  if (screen_weights != nullptr &&
+      (screen_weights->window != params.window() || screen_weights->max_run != params.max_run))
     return Status::error("PopFindJob: screen_weights were made for a window of " +
-                         std::to_string(screen_weights->window) + ", params have " +
-                         std::to_string(params.window()));
+                         std::to_string(screen_weights->window) + " and max_run " +
+                         std::to_string(screen_weights->max_run) + ", params have " +
+                         std::to_string(params.window()) + " and " +
+                         std::to_string(params.max_run));
   return params.validate();
 }
 

@@ -9,7 +9,8 @@
 
 namespace mocap {
 
-PopScreen::PopScreen(const PopRepairParams& params) : window(params.window()) {
+PopScreen::PopScreen(const PopRepairParams& params)
+    : window(params.window()), max_run(params.max_run) {
   for (int o = -window; o <= window; ++o)
     if (o != 0) offsets.push_back(double(o));
   const std::size_t n = offsets.size();

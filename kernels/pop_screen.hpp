@@ -73,7 +73,7 @@ inline constexpr double kPopIntervalSse = 1e-9;   // rad^2: the intervals' allow
 // (measured in README "Performance").
 // The weights of the bound for one PopRepairParams (its whole window's candidate fits).
 struct PopScreen {
-  int window = 0;
+  int window = 0, max_run = 0;  // of the PopRepairParams it was made for
   std::vector<double> offsets;  // the 2 window() neighbours' offsets o_i, -window..window but 0
   // |w_ki| of each tier-0 candidate k, each distinct row once (28 of 35 for the defaults).
   std::vector<std::vector<double>> block_weights;

@@ -225,7 +225,9 @@ TEST(PopDetourJob, NoiseIsNotAPopButAPopThroughNoiseIsFlagged) {
       std::printf("sigma %.2f%s: %ld of %d samples flagged\n", sigma, pop ? ", a pop" : "", flagged,
                   frames * joints);
       EXPECT_LE(flagged, 0.0025 * frames * joints) << sigma;
-      if (pop) EXPECT_EQ(flags[std::size_t(150) * joints + 4], 1) << sigma;
+      if (pop) {
+        EXPECT_EQ(flags[std::size_t(150) * joints + 4], 1) << sigma;
+      }
     }
 }
 

@@ -18,6 +18,7 @@
 #include "kernels/metrics.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/pop_repair.hpp"
+#include "kernels/pop_screen.hpp"
 #include "kernels/simd/pop_residuals_simd.hpp"
 #include "tests/test_support.hpp"
 
@@ -315,7 +316,17 @@ TEST(PopRepair, FindJobExplainsWhatIsWrong) {
   job.joint_end = 4;
   EXPECT_NE(job.run().message().find("outside the clip's 3 joints"), std::string::npos);
   job.joint_end = -1;
+  // A screen made for other params: its candidates would not be the params' fits.
+  PopRepairParams other;
+  other.max_run = job.params.max_run + 1;
+  const PopScreen foreign(other);
+  job.screen_weights = &foreign;
+  EXPECT_NE(job.run().message().find("screen_weights were made for"), std::string::npos);
+  const PopScreen own(job.params);
+  job.screen_weights = &own;
+  EXPECT_TRUE(job.run().ok());
   job.params.max_run = 0;
+  job.screen_weights = nullptr;
   EXPECT_FALSE(job.run());
 }
 
