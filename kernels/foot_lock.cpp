@@ -323,6 +323,42 @@ double drop_of(const std::vector<std::pair<int, double>>& drops, int root) {
   return 0.0;
 }
 
+// The envelope's Gaussian weights w[|k|], k in [-w, w] (header, "Reach"; empty: none), and
+// its allowance m.
+void drop_weights(const FootLockJob& job, FootLockScratch& s, const FootLockStats& stats) {
+  const int w = int(std::lround(job.params.drop_time / job.frame_time));
+  s.drop_allowance = stats.anchor_noise * job.body_height;  // 0 without input_anchors
+  s.drop_weights.clear();
+  if (w <= 0) return;
+  for (int k = 0; k <= w; ++k) {
+    const double u = 2.0 * k / w;  // k / sigma, sigma = w / 2
+    s.drop_weights.push_back(std::exp(-0.5 * u * u));
+  }
+}
+
+// Header, "Reach": one leg's drops d over one run of consecutive touched frames, in place, as
+// max(d - m, G * d), m = `allowance`: G the Gaussian weights over +-w, normalized over all 2w + 1
+// of them, the frames outside the run taken as 0 (they are not lowered); the run's two end frames
+// keep their own (0 where no leg is active there: the knee's speed limit needs the IK to end
+// inside the run; with them in, the knee peaked at 56x the input's). Shared by both paths.
+void envelope_drops(std::span<double> drops, std::span<const double> weights, double allowance,
+                    std::vector<double>& blurred) {
+  if (weights.empty() || std::none_of(drops.begin(), drops.end(), [](double d) { return d > 0; }))
+    return;
+  const std::ptrdiff_t n = std::ssize(drops), w = std::ssize(weights) - 1;
+  double total = weights[0];
+  for (std::ptrdiff_t k = 1; k <= w; ++k) total += 2 * weights[std::size_t(k)];
+  blurred.assign(drops.size(), 0.0);
+  for (std::ptrdiff_t i = 1; i + 1 < n; ++i) {
+    double sum = 0;
+    for (std::ptrdiff_t k = std::max<std::ptrdiff_t>(0, i - w); k <= std::min(n - 1, i + w); ++k)
+      sum += weights[std::size_t(std::abs(k - i))] * drops[std::size_t(k)];
+    blurred[std::size_t(i)] = sum / total;
+  }
+  for (std::ptrdiff_t i = 1; i + 1 < n; ++i)
+    drops[std::size_t(i)] = std::max(drops[std::size_t(i)] - allowance, blurred[std::size_t(i)]);
+}
+
 // The input anchors' noise (header, "Contacts"), body heights; 0 where no anchor stays in one
 // contact for three frames.
 double anchor_noise(const FootLockJob& job, FootLockScratch& s) {
@@ -664,6 +700,15 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     }
   }
 
+  // The drops' envelope over each run of consecutive touched frames, per leg (the legs of one
+  // root have the same row, and so the same envelope).
+  for (std::size_t l = 0; l < leg_count; ++l)
+    for (std::size_t begin = 0, end; begin < n; begin = end) {
+      for (end = begin + 1; end < n && frame_of[end] == frame_of[end - 1] + 1;) ++end;
+      envelope_drops(std::span(s.leg_drops.data() + l * padded + begin, end - begin),
+                     s.drop_weights, s.drop_allowance, s.envelope);
+    }
+
   // The knee's speed limit per leg (reference: the same steps, frame by frame): which frames
   // the IK touches, the filter's knee turn per step, the band that returns to 0.
   const double step_limit = knee_speed_limit > 0 ? knee_speed_limit * job.frame_time : 0.0;
@@ -848,6 +893,8 @@ Status FootLockParams::validate() const {
     return Status::error("foot lock: max_reach must be in (0, 1]");
   if (std::isnan(max_knee_speed) || std::isinf(max_knee_speed))
     return Status::error("foot lock: max_knee_speed must be finite");
+  if (!(drop_time >= 0) || !std::isfinite(drop_time))
+    return Status::error("foot lock: drop_time must be finite and >= 0");
   if (!(pin_width >= 0) || !std::isfinite(pin_width))
     return Status::error("foot lock: pin_width must be finite and >= 0");
   if (!(min_pin_sigma >= 0) || !(max_pin_sigma >= min_pin_sigma) || !std::isfinite(max_pin_sigma))
@@ -960,6 +1007,7 @@ Status FootLockJob::run() const {
   for (std::size_t l = 0; l < leg_count; ++l)
     contact_labels(ankle_lists[l], toe_lists[l], std::span(work.labels.data() + l * F, F));
   pin_weights(*this, work, local_stats);
+  drop_weights(*this, work, local_stats);
   auto labels = [&](std::size_t l) { return std::span(work.labels.data() + l * F, F); };
   // The frames the lock can touch, within `blend` frames of a contact of some leg (the offsets
   // are 0 elsewhere), and one more each side (the knee's speed there): only there are the leg
@@ -1117,9 +1165,25 @@ Status FootLockJob::run() const {
                root_drop(std::hypot(to_target.x, to_target.z),
                          f.hip.y - target[l][std::size_t(t)].y, r));
     }
-    lower_roots(translations, t, drops, local_stats);
     for (std::size_t l = 0; l < leg_count; ++l)
       leg_drop[l][std::size_t(t)] = drop_of(drops, root[l]);
+  }
+  // Their envelope over each run of touched frames (header, "Reach"), then the roots lowered.
+  for (std::size_t l = 0; l < leg_count; ++l)
+    for (int begin = 0, end; begin < frames; begin = end) {
+      for (end = begin + 1;
+           end < frames && touched[std::size_t(end)] == touched[std::size_t(begin)];)
+        ++end;
+      if (touched[std::size_t(begin)])
+        envelope_drops(std::span(leg_drop[l].data() + begin, std::size_t(end - begin)),
+                       work.drop_weights, work.drop_allowance, work.envelope);
+    }
+  for (int t = 0; t < frames; ++t) {
+    if (!touched[std::size_t(t)]) continue;
+    drops.clear();
+    for (std::size_t l = 0; l < leg_count; ++l)
+      add_drop(drops, root[l], leg_drop[l][std::size_t(t)]);
+    lower_roots(translations, t, drops, local_stats);
   }
 
   // The knee's speed limit (header): per leg, the filtered interior angle theta_f and, over each

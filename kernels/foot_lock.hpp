@@ -50,6 +50,16 @@
 //   Reach. Where |T - a| > L for a planted leg, the root (the leg's top ancestor, when it carries
 //   a translation) is lowered along Y just enough for the hip to reach: a_y' = T_y +
 //   sqrt(L^2 - h^2), h the horizontal hip-target distance; by the largest drop of its legs.
+//   Over each run of consecutive touched frames a root's drops d become max(d - m, G * d), G a
+//   Gaussian (sigma w / 2, w = drop_time / frame_time) truncated at +-w, the frames outside the
+//   run taken as 0, the run's two end frames kept; m the input anchors' noise (stats'
+//   anchor_noise times body_height; 0 without input_anchors). Where noise makes the need come
+//   and go from frame to frame the root no longer steps down and back up with it (which bent
+//   the knee to and fro: README "Feet", "Reach"). No frame is lowered deeper than the deepest
+//   need within w frames, nor less than its own need minus m: where G * d < d the IK clamps at
+//   max_reach and the ankle stops short of its pin by at most m, the capture's own noise there
+//   (max(d, G * d), m = 0, held it exactly but lowered the root through the need's dips and
+//   measured worse).
 //   Knee speed. Near a straight leg the knee angle per unit of hip-target distance grows as
 //   1 / sin(theta), so a pin the filtered ankle moves away from (at a contact's end the filtered
 //   ankle already leaves: the filter spreads the lift-off in time) asks the knee to catch up
@@ -65,8 +75,9 @@
 //   A bound on the interior angle alone let the filter's twist add to it (eval: 1.22x). Where
 //   the limit bites the ankle misses its target along the hip-target line by what the knee could
 //   not do.
-// Frames with D = 0 on every leg of a root are left bit-identical, and so is every joint that is
-// not a hip, knee or ankle of a leg (rotations) or a lowered root (translation).
+// Frames with D = 0 on every leg of a root and no drop within w frames are left bit-identical,
+// and so is every joint that is not a hip, knee or ankle of a leg (rotations) or a lowered root
+// (translation).
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -88,6 +99,7 @@ inline constexpr double kBendSideMinBend = 0.2;
 struct FootLockParams {
   double blend_time = 0.1;   // seconds of fade in before and fade out after each contact
   double max_reach = 0.995;  // fraction of the straight leg the IK may stretch to
+  double drop_time = 0.05;   // seconds: the half-width w of the roots' drops' envelope ("Reach")
   // The knee's speed limit, rad/s (header, "Knee speed"): 0, the filtered motion's own peak
   // knee speed (peak_knee_speed over all steps); < 0, no limit.
   double max_knee_speed = 0;
@@ -149,9 +161,11 @@ struct FootLockScratch {
   // One contact's anchor positions and their x, z (the pins' medians).
   std::vector<Vec3> points;
   std::vector<double> xs, zs;
-  std::vector<int> leg_of;          // per complete leg, its index in FootLockJob::legs
-  std::vector<double> pin_weights;  // the pins' Gaussian, w[|j - k|]; empty: median pins
-  struct Segment {                  // a run of frames with the same anchor (1: ankle, 2: toe)
+  std::vector<int> leg_of;                     // per complete leg, its index in FootLockJob::legs
+  std::vector<double> pin_weights;             // the pins' Gaussian, w[|j - k|]; empty: median pins
+  std::vector<double> drop_weights, envelope;  // the drops' envelope (header, "Reach")
+  double drop_allowance = 0;                   // m, file units (header, "Reach")
+  struct Segment {  // a run of frames with the same anchor (1: ankle, 2: toe)
     int begin, end, anchor;
   };
   struct Cluster {  // a contact: a run of adjacent segments, indices inclusive
