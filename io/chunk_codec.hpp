@@ -40,7 +40,12 @@ bool deflate_encode(std::span<const std::uint8_t> in, int level, std::vector<std
 
 // HDF5's Fletcher-32 (H5_checksum_fletcher32, the H5Z_FILTER_FLETCHER32 filter): sums of
 // big-endian 16-bit words, an odd last byte as the high half of one, folded to 16 bits every
-// 360 words; sum2 << 16 | sum1.
+// 360 words; sum2 << 16 | sum1. This is HDF5's loop, the reference of fletcher32.
+std::uint32_t fletcher32_reference(std::span<const std::uint8_t> bytes);
+// The same checksum from the exact sums S1 = sum of the words and S2 = sum of their running
+// sums, taken 16 words abreast: folding (x & 0xffff) + (x >> 16) keeps x mod 65535 and never
+// turns a positive x into 0, so each half is 0 when its exact sum is 0 and otherwise the
+// residue of the sum mod 65535 in [1, 65535], however the folds were scheduled.
 std::uint32_t fletcher32(std::span<const std::uint8_t> bytes);
 // Whether a stored chunk ending in its Fletcher-32 (4 bytes, little-endian) is intact, as the
 // filter decides on read: HDF5 also accepts the checksum with the bytes of each 16-bit half

@@ -10,10 +10,11 @@
 
 namespace mocap::engine {
 
-std::vector<float> joint_positions(const Clip& clip, std::span<const int> joints) {
+bool joint_positions_into(const Clip& clip, std::span<const int> joints,
+                          std::span<float> positions) {
   const Skeleton& sk = *clip.skeleton;
   const int outputs = joints.empty() ? sk.joint_count() : int(joints.size());
-  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(outputs) * 3);
+  if (positions.size() != std::size_t(clip.frames) * std::size_t(outputs) * 3) return false;
   const std::vector<std::uint8_t> translated = sk.translated_mask();
   ForwardKinematicsJob fk;
   fk.parents = sk.parents;
@@ -23,7 +24,13 @@ std::vector<float> joint_positions(const Clip& clip, std::span<const int> joints
   fk.translated_joints = translated;
   fk.output_joints = joints;
   fk.positions = {positions.data(), clip.frames, outputs};
-  if (!fk.run().ok()) positions.clear();
+  return fk.run().ok();
+}
+
+std::vector<float> joint_positions(const Clip& clip, std::span<const int> joints) {
+  const int outputs = joints.empty() ? clip.skeleton->joint_count() : int(joints.size());
+  std::vector<float> positions(std::size_t(clip.frames) * std::size_t(outputs) * 3);
+  if (!joint_positions_into(clip, joints, positions)) positions.clear();
   return positions;
 }
 

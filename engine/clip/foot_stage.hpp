@@ -42,6 +42,10 @@ struct ClipFeet {
 // `joints` (optional): only these joints' positions, [F][K][3] in this order, at the cost of
 // their chains (ForwardKinematicsJob::output_joints).
 std::vector<float> joint_positions(const Clip& clip, std::span<const int> joints = {});
+// The same into `positions` ([F][K][3], K = joints.size() or every joint), which it overwrites
+// whole, so a caller can hand it memory that was never zeroed; false where the former is empty.
+bool joint_positions_into(const Clip& clip, std::span<const int> joints,
+                          std::span<float> positions);
 
 // The legs of the clip's skeleton and their contacts in `clip` (global ankle positions by
 // forward kinematics; the body height from the rest pose).

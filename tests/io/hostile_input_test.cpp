@@ -12,6 +12,7 @@
 
 #include "io/bvh_reader.hpp"
 #include "io/bvh_writer.hpp"
+#include "io/clip_validation.hpp"
 #include "io/library_store.hpp"
 #include "tests/test_support.hpp"
 
@@ -252,6 +253,32 @@ TEST_F(HostileLibrary, NonUnitQuaternion) {
   Editor(lib()).rotations(clip.rotations, kFrames, kJoints);
   expect_check_fails("not a unit quaternion");
   expect_export_fails("not a unit quaternion");
+}
+
+// validate_clip's vector pass accepts only norms well inside the limit; the rest, and every
+// bad value, go to the exact per-sample test, which names the first one.
+TEST(ClipValidation, NormsNearTheLimitAreJudgedExactly) {
+  for (const auto& [scale, valid] : std::vector<std::pair<float, bool>>{{1.0f, true},
+                                                                        {1.0007f, true},
+                                                                        {1.0009f, true},
+                                                                        {0.9991f, true},
+                                                                        {1.0011f, false},
+                                                                        {0.9989f, false},
+                                                                        {2.0f, false}}) {
+    Clip clip = make_clip(kJoints, 20);
+    for (int c = 0; c < 4; ++c) clip.rotations[(13 * kJoints + 6) * 4 + c] *= scale;
+    const std::string problem = validate_clip(clip);
+    EXPECT_EQ(problem.empty(), valid) << scale << ": " << problem;
+    if (!valid) {
+      EXPECT_NE(problem.find("frame 14, joint 'J6'"), std::string::npos) << problem;
+    }
+  }
+  Clip clip = make_clip(kJoints, 20);
+  clip.translations[(19 * kJoints + 30) * 3 + 1] = -std::numeric_limits<float>::infinity();
+  clip.translations[(19 * kJoints + 29) * 3 + 2] = std::numeric_limits<float>::max();
+  EXPECT_EQ(validate_clip(clip), "infinity in translations at frame 20, joint 'J30'");
+  clip.rotations[(2 * kJoints + 1) * 4] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(validate_clip(clip), "NaN in rotations at frame 3, joint 'J1'");
 }
 
 TEST_F(HostileLibrary, ParentCycle) {

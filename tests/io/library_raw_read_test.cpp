@@ -112,6 +112,50 @@ TEST(ChunkCodec, UnshuffleUndoesShuffle) {
     }
 }
 
+TEST(ChunkCodec, ShuffleSendsByteBOfElementIToPlaneB) {
+  std::mt19937_64 rng(5);
+  for (std::size_t element : {1u, 2u, 3u, 4u, 8u})
+    for (std::size_t size : {0u, 1u, 4u, 5u, 63u, 64u, 65u, 4099u, 126976u}) {
+      std::vector<std::uint8_t> in(size), out(size);
+      for (auto& b : in) b = std::uint8_t(rng());
+      shuffle_bytes(in, element, out);
+      const std::size_t n = in.size() / element, whole = n * element;
+      bool same = true;
+      for (std::size_t i = 0; i < whole; ++i) {
+        const std::size_t plane = n > 1 ? i % element : 0, index = n > 1 ? i / element : i;
+        same = same && out[plane * n + index] == in[i];
+      }
+      for (std::size_t i = whole; i < size; ++i) same = same && out[i] == in[i];
+      EXPECT_TRUE(same) << element << " " << size;
+    }
+}
+
+// The fast checksum against HDF5's loop: random bytes of every length near the lanes' and the
+// blocks' edges, all zeros (0, not 65535), all ones (the sums' largest words), and lengths
+// where a half is a multiple of 65535.
+TEST(ChunkCodec, Fletcher32MatchesHdf5sLoop) {
+  std::mt19937_64 rng(6);
+  std::vector<std::size_t> sizes;
+  for (std::size_t s = 0; s < 80; ++s) sizes.push_back(s);
+  for (std::size_t edge : {512u, 8192u, 8192u * 3, 126976u * 4})
+    for (std::size_t d = 0; d < 5; ++d) sizes.insert(sizes.end(), {edge - d, edge + d});
+  for (std::size_t size : sizes)
+    for (int pattern = 0; pattern < 4; ++pattern) {
+      std::vector<std::uint8_t> bytes(size);
+      for (auto& b : bytes)
+        b = pattern == 0   ? 0
+            : pattern == 1 ? 0xff
+            : pattern == 2 ? std::uint8_t(rng())
+                           : std::uint8_t(rng() % 3);
+      ASSERT_EQ(fletcher32(bytes), fletcher32_reference(bytes)) << size << " " << pattern;
+    }
+  // 65535 words of 1: S1 = 65535 exactly (the reference keeps 65535, not 0).
+  std::vector<std::uint8_t> ones(2 * 65535);
+  for (std::size_t i = 1; i < ones.size(); i += 2) ones[i] = 1;
+  EXPECT_EQ(fletcher32(ones) & 0xffff, 65535u);
+  EXPECT_EQ(fletcher32(ones), fletcher32_reference(ones));
+}
+
 TEST(ChunkCodec, DecodeChunkUndoesEncodeChunk) {
   std::mt19937_64 rng(4);
   std::vector<float> values(3 * 31 * 4 * 50);
