@@ -306,6 +306,19 @@ bool encode_filters(std::span<const std::uint8_t> raw, Compression compression,
 
 }  // namespace
 
+std::size_t encoded_chunk_bound(std::size_t raw_bytes, Compression compression, bool checksum) {
+  std::size_t bound = raw_bytes;
+  if (compression == Compression::lz4) {
+    // lz4_filter_encode's header, then per block its size and LZ4's bound.
+    const std::size_t blocks = raw_bytes == 0 ? 0 : (raw_bytes - 1) / kLz4DefaultBlockSize + 1;
+    bound = 12 + blocks * 4 +
+            std::size_t(LZ4_compressBound(int(std::min(raw_bytes, kLz4DefaultBlockSize)))) * blocks;
+  } else if (compression == Compression::deflate) {
+    bound = std::size_t(compressBound(uLong(raw_bytes)));
+  }
+  return bound + (checksum ? 4 : 0);
+}
+
 bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression, bool checksum,
                   std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch) {
   const std::size_t begin = out.size();

@@ -58,6 +58,10 @@ bool fletcher32_matches(std::span<const std::uint8_t> stored);
 bool encode_chunk(std::span<const std::uint8_t> raw, Compression compression, bool checksum,
                   std::vector<std::uint8_t>& out, std::vector<std::uint8_t>& scratch);
 
+// The most bytes encode_chunk can append for a raw chunk of `raw_bytes`: what a writer reserves
+// so that a clip's chunks are appended without the buffer moving.
+std::size_t encoded_chunk_bound(std::size_t raw_bytes, Compression compression, bool checksum);
+
 // Inverse of encode_chunk, what HDF5's filters do on read (H5Dread_chunk's bytes in, the chunk
 // out): with `checksum` the Fletcher-32 is verified first, then the chunk is decompressed and
 // unshuffled into `raw`, which it must fill exactly. "" or why the chunk is damaged, phrased to

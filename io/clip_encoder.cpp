@@ -28,7 +28,10 @@ bool encode_dataset(const std::vector<float>& values, int frames, int joints, in
   out.bytes.clear();
   out.chunk_ends.clear();
   out.chunk_ends.reserve(chunks);
-  if (compression == Compression::none) out.bytes.reserve(chunks * chunk_floats * sizeof(float));
+  // Room for every chunk at once: grown by doubling, the buffer was copied over and over
+  // (a profile's memmove inside lz4_filter_encode).
+  out.bytes.reserve(chunks *
+                    encoded_chunk_bound(chunk_floats * sizeof(float), compression, checksum));
   std::vector<float> padded;  // the last chunk, zero-filled past the clip's end
   std::vector<std::uint8_t> scratch;
   for (std::size_t k = 0; k < chunks; ++k) {

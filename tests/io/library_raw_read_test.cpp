@@ -156,6 +156,27 @@ TEST(ChunkCodec, Fletcher32MatchesHdf5sLoop) {
   EXPECT_EQ(fletcher32(ones), fletcher32_reference(ones));
 }
 
+// What a writer reserves holds any chunk, and little more: random bytes (LZ4 and deflate save
+// nothing), zeros (they save most), a tiny chunk.
+TEST(ChunkCodec, EncodedChunksStayWithinTheirBound) {
+  std::mt19937_64 rng(7);
+  for (std::size_t size : {4u, 64u, 4096u, 126976u * 4})
+    for (bool random : {false, true}) {
+      std::vector<std::uint8_t> raw(size);
+      if (random)
+        for (auto& b : raw) b = std::uint8_t(rng());
+      for (Compression compression : {Compression::none, Compression::lz4, Compression::deflate})
+        for (bool checksum : {false, true}) {
+          std::vector<std::uint8_t> stored, scratch;
+          ASSERT_TRUE(encode_chunk(raw, compression, checksum, stored, scratch));
+          EXPECT_LE(stored.size(), encoded_chunk_bound(size, compression, checksum))
+              << size << " " << random << " " << to_string(compression) << " " << checksum;
+          // and reserves little more than the chunk itself
+          EXPECT_LE(encoded_chunk_bound(size, compression, checksum), size + size / 200 + 40);
+        }
+    }
+}
+
 TEST(ChunkCodec, DecodeChunkUndoesEncodeChunk) {
   std::mt19937_64 rng(4);
   std::vector<float> values(3 * 31 * 4 * 50);
