@@ -323,17 +323,27 @@ double drop_of(const std::vector<std::pair<int, double>>& drops, int root) {
   return 0.0;
 }
 
-// The envelope's Gaussian weights w[|k|], k in [-w, w] (header, "Reach"; empty: none), and
-// its allowance m.
+// weights[d] = exp(-(d / sigma)^2 / 2) for d = 0 .. radius: the half of a Gaussian that the
+// pins' and the drops' tables hold (sigma > 0 when radius > 0).
+void half_gaussian(double sigma, int radius, std::vector<double>& weights) {
+  weights.resize(std::size_t(radius) + 1);
+  for (int d = 0; d <= radius; ++d) {
+    const double u = double(d) / sigma;
+    weights[std::size_t(d)] = d == 0 ? 1 : std::exp(-0.5 * u * u);
+  }
+}
+
+// The envelope's Gaussian weights w[|k|], k in [-w, w], sigma = w / 2 (header, "Reach"; empty:
+// none), their total over all 2w + 1 frames, and the allowance m.
 void drop_weights(const FootLockJob& job, FootLockScratch& s, const FootLockStats& stats) {
   const int w = int(std::lround(job.params.drop_time / job.frame_time));
   s.drop_allowance = stats.anchor_noise * job.body_height;  // 0 without input_anchors
   s.drop_weights.clear();
+  s.drop_total = 0;
   if (w <= 0) return;
-  for (int k = 0; k <= w; ++k) {
-    const double u = 2.0 * k / w;  // k / sigma, sigma = w / 2
-    s.drop_weights.push_back(std::exp(-0.5 * u * u));
-  }
+  half_gaussian(w / 2.0, w, s.drop_weights);
+  s.drop_total = s.drop_weights[0];
+  for (int k = 1; k <= w; ++k) s.drop_total += 2 * s.drop_weights[std::size_t(k)];
 }
 
 // Header, "Reach": one leg's drops d over one run of consecutive touched frames, in place, as
@@ -341,13 +351,11 @@ void drop_weights(const FootLockJob& job, FootLockScratch& s, const FootLockStat
 // of them, the frames outside the run taken as 0 (they are not lowered); the run's two end frames
 // keep their own (0 where no leg is active there: the knee's speed limit needs the IK to end
 // inside the run; with them in, the knee peaked at 56x the input's). Shared by both paths.
-void envelope_drops(std::span<double> drops, std::span<const double> weights, double allowance,
-                    std::vector<double>& blurred) {
+void envelope_drops(std::span<double> drops, std::span<const double> weights, double total,
+                    double allowance, std::vector<double>& blurred) {
   if (weights.empty() || std::none_of(drops.begin(), drops.end(), [](double d) { return d > 0; }))
     return;
   const std::ptrdiff_t n = std::ssize(drops), w = std::ssize(weights) - 1;
-  double total = weights[0];
-  for (std::ptrdiff_t k = 1; k <= w; ++k) total += 2 * weights[std::size_t(k)];
   blurred.assign(drops.size(), 0.0);
   for (std::ptrdiff_t i = 1; i + 1 < n; ++i) {
     double sum = 0;
@@ -391,12 +399,7 @@ void pin_weights(const FootLockJob& job, FootLockScratch& s, FootLockStats& stat
                                   job.params.min_pin_sigma / job.frame_time,
                                   job.params.max_pin_sigma / job.frame_time);
   stats.pin_sigma = sigma * job.frame_time;
-  const int radius = int(std::ceil(3 * sigma));
-  s.pin_weights.resize(std::size_t(radius) + 1);
-  for (int d = 0; d <= radius; ++d) {
-    const double u = double(d) / sigma;  // d > 0 only when sigma > 0
-    s.pin_weights[std::size_t(d)] = d == 0 ? 1 : std::exp(-0.5 * u * u);
-  }
+  half_gaussian(sigma, int(std::ceil(3 * sigma)), s.pin_weights);
 }
 
 // run()'s steps with the touched frames as planes (kernels/simd/foot_lock_simd.hpp): forward
@@ -706,7 +709,7 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
     for (std::size_t begin = 0, end; begin < n; begin = end) {
       for (end = begin + 1; end < n && frame_of[end] == frame_of[end - 1] + 1;) ++end;
       envelope_drops(std::span(s.leg_drops.data() + l * padded + begin, end - begin),
-                     s.drop_weights, s.drop_allowance, s.envelope);
+                     s.drop_weights, s.drop_total, s.drop_allowance, s.envelope);
     }
 
   // The knee's speed limit per leg (reference: the same steps, frame by frame): which frames
@@ -1176,7 +1179,7 @@ Status FootLockJob::run() const {
         ++end;
       if (touched[std::size_t(begin)])
         envelope_drops(std::span(leg_drop[l].data() + begin, std::size_t(end - begin)),
-                       work.drop_weights, work.drop_allowance, work.envelope);
+                       work.drop_weights, work.drop_total, work.drop_allowance, work.envelope);
     }
   for (int t = 0; t < frames; ++t) {
     if (!touched[std::size_t(t)]) continue;

@@ -164,8 +164,9 @@ struct FootLockScratch {
   std::vector<int> leg_of;                     // per complete leg, its index in FootLockJob::legs
   std::vector<double> pin_weights;             // the pins' Gaussian, w[|j - k|]; empty: median pins
   std::vector<double> drop_weights, envelope;  // the drops' envelope (header, "Reach")
-  double drop_allowance = 0;                   // m, file units (header, "Reach")
-  struct Segment {  // a run of frames with the same anchor (1: ankle, 2: toe)
+  double drop_total = 0;      // the envelope's weights summed over all 2w + 1 frames
+  double drop_allowance = 0;  // m, file units (header, "Reach")
+  struct Segment {            // a run of frames with the same anchor (1: ankle, 2: toe)
     int begin, end, anchor;
   };
   struct Cluster {  // a contact: a run of adjacent segments, indices inclusive
