@@ -14,49 +14,54 @@
 namespace mocap::io {
 namespace {
 
-// Shortest text that reads back to the same double (or float: std::to_chars picks by type).
+// The characters one value can take in a frame line: a double in fixed notation with 6 decimals
+// (write_degrees' fallback), which also bounds the shortest form of any float or double.
+constexpr std::size_t kMaxValueChars = 352;
+
+// Shortest text that reads back to the same double (or float: std::to_chars picks by type),
+// written at p; returns the end.
+template <class Real>
+char* write_shortest(char* p, Real value) {
+  return std::to_chars(p, p + kMaxValueChars, value).ptr;
+}
+
 template <class Real>
 void append_shortest(std::string& out, Real value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  out.append(buffer, result.ptr);
+  char buffer[kMaxValueChars];
+  out.append(buffer, write_shortest(buffer, value));
 }
 
 // Degrees with 6 decimals, trailing zeros dropped: "-21", "12.5", "0.000123". 6 decimals keep a
 // re-read within 5e-7 degrees (9e-9 rad) of the exact angle, far inside the float storage of
 // the quaternions, at about half the bytes of the shortest round-trip form of a double.
 // Formatted as an integer count of micro-degrees: several times faster than fixed-precision
-// std::to_chars, which dominated the writer's time.
-void append_degrees(std::string& out, double degrees) {
+// std::to_chars, which dominated the writer's time. Written at p; returns the end.
+char* write_degrees(char* p, double degrees) {
   constexpr double kLimit = 9e12;  // micro-degrees still fit an int64 exactly
-  if (!(std::abs(degrees) < kLimit)) {
-    char buffer[352];  // room for any double in fixed notation with 6 decimals
-    const auto result =
-        std::to_chars(buffer, buffer + sizeof buffer, degrees, std::chars_format::fixed, 6);
-    out.append(buffer, result.ptr);
-    return;
-  }
+  if (!(std::abs(degrees) < kLimit))
+    return std::to_chars(p, p + kMaxValueChars, degrees, std::chars_format::fixed, 6).ptr;
   const long long micro = std::llround(degrees * 1e6);
   if (micro == 0) {
-    out += '0';  // no "-0": a sign on zero is noise
-    return;
+    *p++ = '0';  // no "-0": a sign on zero is noise
+    return p;
   }
   const unsigned long long magnitude = micro < 0 ? 0ull - (unsigned long long)micro : micro;
-  if (micro < 0) out += '-';
-  char buffer[24];
-  auto result = std::to_chars(buffer, buffer + sizeof buffer, magnitude / 1000000);
-  out.append(buffer, result.ptr);
+  if (micro < 0) *p++ = '-';
+  p = std::to_chars(p, p + 24, magnitude / 1000000).ptr;
   unsigned long long fraction = magnitude % 1000000;
-  if (fraction == 0) return;
+  if (fraction == 0) return p;
   int digits = 6;
   while (fraction % 10 == 0) {
     fraction /= 10;
     --digits;
   }
-  out += '.';
-  result = std::to_chars(buffer, buffer + sizeof buffer, fraction);
-  out.append(std::size_t(digits - (result.ptr - buffer)), '0');
-  out.append(buffer, result.ptr);
+  *p++ = '.';
+  char buffer[8];
+  const char* end = std::to_chars(buffer, buffer + sizeof buffer, fraction).ptr;
+  const std::size_t length = std::size_t(end - buffer), zeros = std::size_t(digits) - length;
+  std::memset(p, '0', zeros);
+  std::memcpy(p + zeros, buffer, length);
+  return p + zeros + length;
 }
 
 void append_vec3(std::string& out, Vec3 v) {
@@ -138,7 +143,14 @@ void append_frames(std::string& out, const Clip& clip) {
   const bool follow_source = clip.source_angles.size() == samples * 3;
   const RotationView rotations = clip.rotation_view();
   const TranslationView translations = clip.translation_view();
+  // A frame's line is written into a buffer with room for its widest values, then appended
+  // whole: appending value by value and space by space to the string was most of the writer's
+  // own time.
+  std::size_t values = 0;
+  for (const auto& channels : skeleton.channels) values += channels.size();
+  std::vector<char> line(values * (kMaxValueChars + 1) + 1);
   for (int t = 0; t < clip.frames; ++t) {
+    char* p = line.data();
     bool first_value = true;
     for (int j = 0; j < joints; ++j) {
       std::optional<EulerAngles>& angles = previous[std::size_t(j)];
@@ -152,15 +164,16 @@ void append_frames(std::string& out, const Clip& clip) {
       const float* translation = translations.at(t, j);
       int rotation_index = 0;
       for (Channel c : skeleton.channels[std::size_t(j)]) {
-        if (!first_value) out += ' ';
+        if (!first_value) *p++ = ' ';
         first_value = false;
         if (is_rotation(c))
-          append_degrees(out, (*angles)[std::size_t(rotation_index++)] * kDegreesPerRadian);
+          p = write_degrees(p, (*angles)[std::size_t(rotation_index++)] * kDegreesPerRadian);
         else
-          append_shortest(out, translation[channel_axis(c)]);
+          p = write_shortest(p, translation[channel_axis(c)]);
       }
     }
-    out += '\n';
+    *p++ = '\n';
+    out.append(line.data(), p);
   }
 }
 

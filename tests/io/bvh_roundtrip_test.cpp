@@ -249,6 +249,40 @@ TEST(BvhRoundTrip, ContinuousAnglesLeaveThePlusMinus180Range) {
   EXPECT_NEAR(rows.back()[3], 990, 1e-5);  // column 3: the root's Zrotation
 }
 
+// The frame lines' number forms, each written straight into the line: degrees with six
+// decimals and trailing zeros dropped ("12.5", "-0.000123"), no "-0", fixed notation with six
+// decimals past 9e12 degrees (a source whose own branch lies that far), the translations'
+// shortest float form.
+TEST(BvhRoundTrip, FrameValuesAreWrittenInTheirShortForms) {
+  const auto skeleton = two_joint_skeleton(RotationOrder::ZXY);
+  const std::vector<Quat> root = {euler_to_quat(RotationOrder::ZXY, {12.5 * kDeg, 0, 0}),
+                                  euler_to_quat(RotationOrder::ZXY, {-0.000123 * kDeg, 0, 0}),
+                                  euler_to_quat(RotationOrder::ZXY, {-1e-9 * kDeg, 0, 0}), Quat{}};
+  Clip clip = clip_of(skeleton, root, std::vector<Quat>(4, Quat{}));
+  clip.source_angles.assign(4 * 2 * 3, 0.0f);
+  clip.source_angles[3 * 2 * 3] = 2e11f;  // frame 3's root, first angle: its own far branch
+  const std::string text = format_bvh(clip);
+  std::istringstream in(text.substr(text.find("Frame Time:")));
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(in, line)) {
+    std::istringstream words(line);
+    rows.emplace_back();
+    for (std::string w; words >> w;) rows.back().push_back(w);
+  }
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_EQ(rows[0][3], "12.5");
+  EXPECT_EQ(rows[1][3], "-0.000123");
+  EXPECT_EQ(rows[2][3], "0");
+  EXPECT_EQ(rows[0][1], "17.8693");  // the translation's float, shortest
+  EXPECT_EQ(rows[0][2], "-123.45679");
+  const std::string& far = rows[3][3];
+  ASSERT_NE(far.find('.'), std::string::npos) << far;
+  EXPECT_EQ(far.size() - far.find('.'), 7u) << far;
+  EXPECT_NEAR(std::stod(far) / (2e11 / kDeg), 1.0, 1e-6) << far;
+}
+
 TEST(BvhRoundTrip, WriteReplacesAtomicallyAndRefusesBadClips) {
   MOCAP_REQUIRE_SHARED_CLIPS();
   ScratchDir scratch;
