@@ -37,7 +37,8 @@ namespace {
 template <typename Angle>
 std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle& angle,
                                              double frame_time, const MotionSplitParams& params,
-                                             std::span<const std::uint8_t> skip) {
+                                             std::span<const std::uint8_t> skip,
+                                             std::span<const double> median_steps = {}) {
   std::vector<ImpossibleStep> steps;
   const auto counted_joint = [&](int j) { return skip.empty() || !skip[std::size_t(j)]; };
   std::vector<double> threshold(std::size_t(std::max(joints, 0)),
@@ -53,8 +54,10 @@ std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle
         work[std::size_t(t)] = angle(t, j);
         pose[std::size_t(t)] += std::min(work[std::size_t(t)], kPoseStepJointClamp);
       }
-      threshold[std::size_t(j)] =
-          std::max(threshold[std::size_t(j)], noise_floor(kStepOverMedian, work));
+      // noise_floor's factor x median; work holds frames - 1 >= kNoiseMinSteps values
+      const double floor = median_steps.empty() ? noise_floor(kStepOverMedian, work)
+                                                : kStepOverMedian * median_steps[std::size_t(j)];
+      threshold[std::size_t(j)] = std::max(threshold[std::size_t(j)], floor);
     }
     if (counted > 0)  // the pose steps' sums: their median over counted is the means'
       pose_threshold = std::max(pose_threshold, noise_floor(kPoseStepOverMedian, pose) / counted);
@@ -98,10 +101,13 @@ std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double
 
 std::vector<ImpossibleStep> find_impossible_steps(const StepAngles& angles, double frame_time,
                                                   const MotionSplitParams& params,
-                                                  std::span<const std::uint8_t> skip) {
+                                                  std::span<const std::uint8_t> skip,
+                                                  std::span<const double> median_steps) {
+  if (!median_steps.empty() && median_steps.size() != std::size_t(angles.joints))
+    median_steps = {};  // not one per joint: measured here
   return impossible_steps(
       angles.frames, angles.joints, [&](int t, int j) { return angles.at(t, j); }, frame_time,
-      params, skip);
+      params, skip, median_steps);
 }
 
 double noise_floor(double factor, std::vector<double>& values) {

@@ -108,9 +108,13 @@ struct StepAngles {
 };
 
 // The same steps from angles already measured (bit for bit what the overload above finds).
+// `median_steps` (empty, or one per joint): each joint's median step angle when the caller has it
+// already (JointQuality::median_step of the same angles), which is exactly the median the joint's
+// noise floor takes.
 std::vector<ImpossibleStep> find_impossible_steps(const StepAngles& angles, double frame_time,
                                                   const MotionSplitParams& params,
-                                                  std::span<const std::uint8_t> skip = {});
+                                                  std::span<const std::uint8_t> skip = {},
+                                                  std::span<const double> median_steps = {});
 
 // Frames [begin, end) between impossible steps (default params) over the joints that `skip`
 // does not mark.

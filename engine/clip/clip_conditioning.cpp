@@ -234,8 +234,14 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   // the pops fast motion hides from the fit (kernels/pop_detour.hpp).
   const bool skeleton_test = !high_rate && std::size_t(J) == parents.size();
   const StepAngles angles{step_angles, F, J};
-  c.segments =
-      split_segments(F, find_impossible_steps(angles, frame_time, MotionSplitParams{}, flipping));
+  // The classification's median steps are the split's noise floors' medians (the same angles).
+  const auto median_steps = [](const std::vector<JointQuality>& joints) {
+    std::vector<double> medians;
+    for (const JointQuality& q : joints) medians.push_back(q.median_step);
+    return medians;
+  };
+  c.segments = split_segments(F, find_impossible_steps(angles, frame_time, MotionSplitParams{},
+                                                       flipping, median_steps(c.joints)));
   // The captured joints' flags of every segment ([F][J] of the clip), first: below
   // kPopsRepairMinFps auto repairs only a clip whose flags are many.
   std::vector<std::uint8_t> flags(std::size_t(F) * std::size_t(J), 0);
@@ -323,8 +329,9 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     for (int j = 0; j < J; ++j)
       flipping_after[std::size_t(j)] =
           c.repaired_joints[std::size_t(j)].joint_class == JointClass::flipping;
-    c.repaired_segments = split_segments(
-        F, find_impossible_steps(angles, frame_time, MotionSplitParams{}, flipping_after));
+    c.repaired_segments =
+        split_segments(F, find_impossible_steps(angles, frame_time, MotionSplitParams{},
+                                                flipping_after, median_steps(c.repaired_joints)));
   }
   return c;
 }
