@@ -4,7 +4,6 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <bit>
 #include <cstring>
 #include <limits>
 
@@ -16,10 +15,6 @@ constexpr std::size_t kLz4DefaultBlockSize = std::size_t(1) << 30;
 
 void append_be(std::vector<std::uint8_t>& out, std::uint64_t value, int bytes) {
   for (int i = bytes - 1; i >= 0; --i) out.push_back(std::uint8_t(value >> (8 * i)));
-}
-
-std::uint32_t byteswap32(std::uint32_t w) {
-  return (w >> 24) | ((w >> 8) & 0xff00u) | ((w << 8) & 0xff0000u) | (w << 24);
 }
 
 std::uint64_t read_be(const std::uint8_t* in, int bytes) {
@@ -38,22 +33,19 @@ void shuffle_bytes(std::span<const std::uint8_t> in, std::size_t element_size,
     return;
   }
   if (element_size == 4) {
-    // float32, the store's only type: one pass writes the four planes. A strided byte loop per
-    // plane ran a byte a cycle (3 % of a one-thread `filter`); whole words split by shifts
-    // vectorize.
-    std::uint8_t* __restrict d0 = out.data();
-    std::uint8_t* __restrict d1 = d0 + n;
-    std::uint8_t* __restrict d2 = d1 + n;
-    std::uint8_t* __restrict d3 = d2 + n;
+    // float32, the store's only type: the four planes in one pass, as unshuffle_bytes reads
+    // them (a strided byte loop per plane, with the element size known only at run time, ran a
+    // byte a cycle: 3 % of a one-thread `filter`).
     const std::uint8_t* __restrict src = in.data();
-    for (std::size_t i = 0; i < n; ++i) {
-      std::uint32_t word;
-      std::memcpy(&word, src + 4 * i, 4);
-      if constexpr (std::endian::native == std::endian::big) word = byteswap32(word);
-      d0[i] = std::uint8_t(word);
-      d1[i] = std::uint8_t(word >> 8);
-      d2[i] = std::uint8_t(word >> 16);
-      d3[i] = std::uint8_t(word >> 24);
+    std::uint8_t* __restrict b0 = out.data();
+    std::uint8_t* __restrict b1 = b0 + n;
+    std::uint8_t* __restrict b2 = b1 + n;
+    std::uint8_t* __restrict b3 = b2 + n;
+    for (std::size_t i = 0; i < n; ++i, src += 4) {
+      b0[i] = src[0];
+      b1[i] = src[1];
+      b2[i] = src[2];
+      b3[i] = src[3];
     }
   } else {
     for (std::size_t b = 0; b < element_size; ++b) {
