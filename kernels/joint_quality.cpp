@@ -22,6 +22,13 @@ std::string_view to_string(JointClass joint_class) {
   return "?";
 }
 
+std::vector<double> median_steps(std::span<const JointQuality> joints) {
+  std::vector<double> medians;
+  medians.reserve(joints.size());
+  for (const JointQuality& q : joints) medians.push_back(q.median_step);
+  return medians;
+}
+
 JointQuality classify_joint(RotationView rotations, int joint, std::span<double> steps_out) {
   JointQuality quality;
   const int steps_count = rotations.frames - 1;

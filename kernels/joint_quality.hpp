@@ -48,6 +48,9 @@ struct JointQuality {
 
 // One entry per joint. Costs one geodesic distance per step and one nth_element per joint.
 std::vector<JointQuality> classify_joints(RotationView rotations);
+// Each joint's median_step, in joint order: what the noise estimate and the impossible-step
+// split would otherwise take again of the same step angles.
+std::vector<double> median_steps(std::span<const JointQuality> joints);
 // `steps` (optional, frames - 1 entries): receives the joint's step angles geodesic(q[t], q[t+1]),
 // which the impossible-step test (kernels/motion_split.hpp, StepAngles) reads again.
 JointQuality classify_joint(RotationView rotations, int joint, std::span<double> steps = {});

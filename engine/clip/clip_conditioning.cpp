@@ -235,11 +235,6 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   const bool skeleton_test = !high_rate && std::size_t(J) == parents.size();
   const StepAngles angles{step_angles, F, J};
   // The classification's median steps are the split's noise floors' medians (the same angles).
-  const auto median_steps = [](const std::vector<JointQuality>& joints) {
-    std::vector<double> medians;
-    for (const JointQuality& q : joints) medians.push_back(q.median_step);
-    return medians;
-  };
   c.segments = split_segments(F, find_impossible_steps(angles, frame_time, MotionSplitParams{},
                                                        flipping, median_steps(c.joints)));
   // The captured joints' flags of every segment ([F][J] of the clip), first: below

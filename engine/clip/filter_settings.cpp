@@ -259,11 +259,9 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
   };
   context.skeleton = clip.skeleton.get();
   if (asked.needs_noise(settings)) {
-    std::vector<double> median_steps;
-    for (const JointQuality& q : qualities()) median_steps.push_back(q.median_step);
-    const NoiseEstimate noise =
-        estimate_noise(clip.rotation_view(),
-                       any_garbage ? garbage : std::span<const std::uint8_t>{}, median_steps);
+    const NoiseEstimate noise = estimate_noise(
+        clip.rotation_view(), any_garbage ? garbage : std::span<const std::uint8_t>{},
+        median_steps(qualities()));
     r.noise_sigma = noise.sigma;
     if (noise.moving_joints == 0 || noise.sigma <= 0) {
       r.unchanged = true;  // spec: a clip where no joint moves has nothing to filter
