@@ -1,10 +1,12 @@
 #include "kernels/pop_skeleton.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
 #include "core/quaternion.hpp"
+#include "kernels/pop_detour.hpp"
 
 namespace mocap {
 
@@ -21,6 +23,8 @@ Status PopSkeletonJob::validate() const {
   if (!(coherence > 0)) return Status::error("pop skeleton test: coherence must be > 0");
   if (reach < 0) return Status::error("pop skeleton test: reach must be >= 0 frames");
   if (pop_group < 0) return Status::error("pop skeleton test: pop_group must be >= 0 joints");
+  if (!(strong_detour >= 0) || !std::isfinite(strong_detour))
+    return Status::error("pop skeleton test: strong_detour must be a finite angle >= 0 rad");
   return params.validate();
 }
 
@@ -101,16 +105,38 @@ Status PopSkeletonJob::run() const {
   const auto counts = [&](int u, int k) {
     return !flagged(u, k) || group[std::size_t(u) * std::size_t(J) + std::size_t(k)] > pop_group;
   };
+  // E(t) of joint k, for 1 <= t < F - 1 (header, "Strong detours").
+  const auto detour = [&](int t, int k) {
+    return pop_detour(load_quat(rotations.at(t - 1, k)), load_quat(rotations.at(t, k)),
+                      load_quat(rotations.at(t + 1, k)));
+  };
+  const auto inside = [&](int t) { return t >= 1 && t + 1 < F; };
+  // Per joint, max(strong_detour, kStrongDetourOverMedian x its median detour), measured where
+  // first needed.
+  std::vector<double> strong_limit(static_cast<std::size_t>(J), -1.0), detours;
+  const auto strong_at = [&](int j) {
+    double& limit = strong_limit[std::size_t(j)];
+    if (limit < 0) {
+      detours.clear();
+      for (int t = 1; t + 1 < F; ++t) detours.push_back(detour(t, j));
+      limit = std::max(strong_detour, noise_floor(kStrongDetourOverMedian, detours));
+    }
+    return limit;
+  };
   // Decide on the input flags (a neighbour's flag counts as it came), then clear.
   std::vector<std::size_t> clear;
   for (int t = 0; t < F; ++t)
     for (int j = 0; j < J; ++j) {
       if (!flagged(t, j) || residual[std::size_t(j)].empty()) continue;
       const double own = residual[std::size_t(j)][std::size_t(t)];
+      const double own_detour = strong_detour > 0 && inside(t) ? detour(t, j) : 0.0;
+      const bool strong =
+          strong_detour > 0 && own_detour > strong_detour && own_detour > strong_at(j);
       bool motion = false;
       for (int k : neighbours[std::size_t(j)])
         for (int u = std::max(0, t - reach); u <= std::min(F - 1, t + reach) && !motion; ++u)
-          motion = counts(u, k) && residual[std::size_t(k)][std::size_t(u)] >= coherence * own;
+          motion = counts(u, k) && residual[std::size_t(k)][std::size_t(u)] >= coherence * own &&
+                   !(strong && inside(u) && detour(u, k) < coherence * own_detour);
       if (motion) clear.push_back(std::size_t(t) * std::size_t(J) + std::size_t(j));
     }
   for (std::size_t i : clear) flags[i] = 0;

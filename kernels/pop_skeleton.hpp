@@ -18,6 +18,18 @@
 // calibrated with `eval --pop-stage repair` at 30 and 24 fps on ../shared/data/bvh, together with
 // the detour test (kernels/pop_detour.hpp) whose flags this test also reads (README "Pops and
 // garbage joints": the grids and what each choice cost).
+//
+// Strong detours. A neighbour's quadratic also misses for reasons of its own: at a segment's
+// first frames its fit extrapolates, and a fast limb there leaves it 0.3-0.5 rad off, enough to
+// veto a pop of 0.9 rad beside it. Where the flagged sample's own detour
+// E_j(t) (kernels/pop_detour.hpp) exceeds strong_detour, far above what real motion makes at
+// 30 fps, a neighbour counts as moving with it only if it also turns back at that frame:
+// E_k(u) >= coherence * E_j(t) as well (a limb that reverses in one frame does; a neighbour
+// whose fit merely misses does not). Samples at a clip's first or last frame have no detour and
+// keep the residual test alone. Under heavy noise every sample detours, a pop no more than the
+// noise (0.24 rad of it per axis gives detours past 2 rad, a pop's most), so the bar is at least
+// kStrongDetourOverMedian x the joint's median detour: twice the detour test's own floor, and
+// above 1 rad from about 0.06 rad of noise up.
 #include <cstdint>
 #include <span>
 
@@ -30,6 +42,8 @@ namespace mocap {
 inline constexpr double kPopCoherence = 0.5;
 inline constexpr int kPopCoherenceReach = 0;
 inline constexpr int kPopGroup = 2;
+inline constexpr double kPopStrongDetour = 1.0;  // rad, header "Strong detours"
+inline constexpr double kStrongDetourOverMedian = 8.0;
 
 struct PopSkeletonJob {
   PopRepairParams params;  // of the per-joint test that flagged the samples (for the residuals)
@@ -38,6 +52,7 @@ struct PopSkeletonJob {
   // Flagged neighbours do not count within a group of at most this many flagged joints (0: they
   // always count; the joint count: never).
   int pop_group = kPopGroup;
+  double strong_detour = 0;            // rad, header "Strong detours"; 0: the residual test alone
   RotationView rotations;              // [F][J], the clip (segment) the flags belong to
   std::span<const int> parents;        // one per joint, -1 for a root
   std::span<const std::uint8_t> skip;  // optional, one per joint: garbage, not a neighbour

@@ -86,6 +86,7 @@ struct SegmentPopTest {
   std::span<const std::uint8_t> flipping, garbage;  // one per joint
   const StepAngles* steps = nullptr;                // the classification's, of the whole clip
   int step_offset = 0;                              // the segment's first frame
+  double strong_detour = 0;  // the skeleton test's (kernels/pop_skeleton.hpp)
   std::span<std::uint8_t> flags;
 
   void find() const {
@@ -118,6 +119,7 @@ struct SegmentPopTest {
   void skeleton(int pop_group = kPopGroup) const {
     PopSkeletonJob job;
     job.pop_group = pop_group;
+    job.strong_detour = strong_detour;
     job.rotations = rotations;
     job.parents = parents;
     job.params = params;
@@ -258,6 +260,9 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     test.garbage = c.garbage;
     test.steps = &angles;
     test.step_offset = seg.begin;
+    // Below kPopsRepairMinFps, where the skeleton test judges every flag (measured there only:
+    // README "Pops and garbage joints", "Strong detours").
+    if (!high_rate) test.strong_detour = kPopStrongDetour;
     test.flags = segment_slice(clip_flags, seg, J);
     return test;
   };

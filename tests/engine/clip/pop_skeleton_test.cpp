@@ -6,6 +6,7 @@
 // test.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <random>
@@ -13,6 +14,8 @@
 
 #include "core/quaternion.hpp"
 #include "engine/clip/clip_conditioning.hpp"
+#include "kernels/pop_detour.hpp"
+#include "kernels/pop_repair.hpp"
 #include "kernels/pop_skeleton.hpp"
 #include "tests/test_support.hpp"
 
@@ -173,6 +176,85 @@ TEST(PopSkeleton, ValidateExplains) {
   job.flags = flags;
   job.coherence = 0;
   EXPECT_FALSE(job.validate().ok());
+}
+
+// Strong detours (kernels/pop_skeleton.hpp): a pop of 0.8 rad on the shin (detour about 1.6 rad)
+// beside a thigh whose quadratic misses at that frame for reasons of its own (glitches 2 and 3
+// frames either side: a fit that leaves out t and one block keeps the others) but whose curve
+// does not turn back there. The residual test alone takes the thigh for motion and clears the
+// flag; with strong_detour the thigh must also detour, and the flag stays. A limb that swings out
+// and back in one frame (every joint detours) is still motion.
+TEST(PopSkeleton, AStrongDetourIsVetoedOnlyByANeighbourThatTurnsBackToo) {
+  test::Motion m = limb({0, 0, 1, 0, 0}, 0.8, {0.6, 0.0, 0.8});
+  for (int t : {kAt - 3, kAt - 2, kAt + 2, kAt + 3})
+    store_quat(m.at(t, 1) * exp(Vec3{0.0, 1.2, 0.0}), m.span().at(t, 1));
+  make_hemisphere_continuous(m.span());
+  const PopRepairParams params = engine::pop_params_at(kFrameTime);
+  // The premises: the thigh's residual at kAt vetoes (>= coherence x the shin's), its detour
+  // there is small, the shin's is strong.
+  std::vector<double> residuals[2], spreads(kFrames), fit_errors(kFrames);
+  for (int j : {1, 2}) {
+    std::vector<Quat> curve(kFrames);
+    for (int t = 0; t < kFrames; ++t) curve[std::size_t(t)] = m.at(t, j);
+    residuals[j - 1].resize(kFrames);
+    pop_residuals(curve, params, residuals[j - 1], spreads, fit_errors);
+  }
+  const auto detour = [&](int j) {
+    return pop_detour(m.at(kAt - 1, j), m.at(kAt, j), m.at(kAt + 1, j));
+  };
+  ASSERT_GE(residuals[0][kAt], kPopCoherence * residuals[1][kAt]);
+  ASSERT_GT(detour(2), kPopStrongDetour);
+  ASSERT_LT(detour(1), kPopCoherence * detour(2));
+
+  const auto kept = [&](const test::Motion& motion, double strong_detour) {
+    std::vector<std::uint8_t> flags(std::size_t(kFrames) * kJoints, 0);
+    flags[std::size_t(kAt) * kJoints + 2] = 1;
+    PopSkeletonJob job;
+    job.params = params;
+    job.rotations = motion.view();
+    job.parents = kParents;
+    job.flags = flags;
+    job.strong_detour = strong_detour;
+    EXPECT_TRUE(job.run().ok());
+    return flags[std::size_t(kAt) * kJoints + 2] == 1;
+  };
+  EXPECT_FALSE(kept(m, 0));
+  EXPECT_TRUE(kept(m, kPopStrongDetour));
+  // Below the shin's detour the rule does not apply.
+  EXPECT_FALSE(kept(m, detour(2) + 0.01));
+
+  // Where the shin's own detours are large everywhere (white noise on every other frame of it),
+  // the bar rises to kStrongDetourOverMedian x their median and the residual test decides again.
+  test::Motion noisy = m;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.2);
+  for (int t = 0; t < kFrames; t += 2)
+    if (std::abs(t - kAt) > 1)
+      store_quat(noisy.at(t, 2) * exp(Vec3{noise(rng), noise(rng), noise(rng)}),
+                 noisy.span().at(t, 2));
+  make_hemisphere_continuous(noisy.span());
+  std::vector<double> shin_detours;
+  for (int t = 1; t + 1 < kFrames; ++t)
+    shin_detours.push_back(pop_detour(noisy.at(t - 1, 2), noisy.at(t, 2), noisy.at(t + 1, 2)));
+  std::nth_element(shin_detours.begin(), shin_detours.begin() + shin_detours.size() / 2,
+                   shin_detours.end());
+  ASSERT_GT(kStrongDetourOverMedian * shin_detours[shin_detours.size() / 2], detour(2));
+  EXPECT_FALSE(kept(noisy, kPopStrongDetour));
+
+  const test::Motion swing = limb({0, 1, 1, 1, 1}, 0.8);
+  ASSERT_GT(pop_detour(swing.at(kAt - 1, 2), swing.at(kAt, 2), swing.at(kAt + 1, 2)),
+            kPopStrongDetour);
+  EXPECT_FALSE(kept(swing, kPopStrongDetour));
+  EXPECT_FALSE(kept(swing, 0));
+
+  PopSkeletonJob job;
+  job.params = params;
+  job.rotations = m.view();
+  job.parents = kParents;
+  std::vector<std::uint8_t> flags(std::size_t(kFrames) * kJoints, 0);
+  job.flags = flags;
+  job.strong_detour = -1;
+  EXPECT_NE(job.validate().message().find("strong_detour"), std::string::npos);
 }
 
 // At 120 fps the per-joint test alone decides, unless a clip has many pops: there the detour test
