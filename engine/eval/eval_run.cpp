@@ -14,6 +14,8 @@
 #include "engine/clip/clip_conditioning.hpp"
 #include "engine/clip/motion_guard.hpp"
 #include "engine/eval/eval_methods.hpp"
+#include "kernels/joint_quality.hpp"
+#include "kernels/motion_split.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
 
@@ -104,8 +106,16 @@ EvalClip prepare_clip(std::string name, Clip source, const EvalConfig& config, i
   EvalClip c;
   c.name = std::move(name);
   c.clean = decimate(std::move(source), step);
-  if (config.split_impossible)
-    c.steps = find_impossible_steps(c.clean.rotation_view(), c.clean.frame_time, config.split);
+  if (config.split_impossible) {
+    // As clean splits (engine/clip/clip_conditioning.cpp): a flipping joint's flips are not
+    // motion and cut nothing (06_14's LThumb would otherwise cut that clip into 18 segments).
+    const std::vector<JointQuality> quality = classify_joints(c.clean.rotation_view());
+    std::vector<std::uint8_t> flipping(quality.size());
+    for (std::size_t j = 0; j < quality.size(); ++j)
+      flipping[j] = quality[j].joint_class == JointClass::flipping;
+    c.steps =
+        find_impossible_steps(c.clean.rotation_view(), c.clean.frame_time, config.split, flipping);
+  }
   c.segments = split_segments(c.clean.frames, c.steps);
   c.geometry = describe_clip(c.clean, config.unit_cm, c.segments);
   c.reference = make_reference(c.clean, c.geometry, c.segments);

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/quaternion.hpp"
+#include "engine/clip/clip_conditioning.hpp"
 #include "engine/clip/filter_settings.hpp"
 #include "engine/clip/motion_guard.hpp"
 #include "engine/eval/eval_metrics.hpp"
@@ -21,6 +22,7 @@
 #include "engine/library/demo_library.hpp"
 #include "io/bvh_reader.hpp"
 #include "io/bvh_writer.hpp"
+#include "kernels/joint_quality.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/noise_estimate.hpp"
 #include "kernels/noise_model.hpp"
@@ -303,6 +305,42 @@ TEST(EvalRun, TheReferencesGlitchesAreFoundAtTheSourcesRate) {
   ASSERT_EQ(low.reference.glitches.size(), std::size_t(60) * std::size_t(J));
   EXPECT_EQ(std::count(low.reference.glitches.begin(), low.reference.glitches.end(), 1), 1);
   EXPECT_EQ(low.reference.glitches[std::size_t(20) * std::size_t(J) + std::size_t(joint)], 1);
+}
+
+// eval splits a clip where clean does (engine/clip/clip_conditioning.cpp): a flipping joint's
+// turns of pi are not motion, so they cut no segment (06_14's LThumb cut that clip into 18).
+TEST(EvalRun, AFlippingJointCutsNoSegmentAsInClean) {
+  Clip clip = engine::make_demo_library()[0].clip;
+  clip.frames = 240;
+  clip.rotations.resize(std::size_t(clip.frames) * clip.joints() * 4);
+  clip.translations.resize(std::size_t(clip.frames) * clip.joints() * 3);
+  const int joint = clip.joints() - 1;
+  // Flipped by pi about x over frames [40k + 20, 40k + 40): 11 steps of pi in 239.
+  for (int t = 0; t < clip.frames; ++t)
+    if ((t / 20) % 2 == 1) {
+      float* q = clip.rotation_span().at(t, joint);
+      store_quat(load_quat(q) * exp(Vec3{kPi, 0, 0}), q);
+    }
+  make_hemisphere_continuous(clip.rotation_span());
+  ASSERT_EQ(classify_joints(clip.rotation_view())[std::size_t(joint)].joint_class,
+            JointClass::flipping);
+  // Over every joint, the flips are impossible steps...
+  ASSERT_GE(
+      find_impossible_steps(clip.rotation_view(), clip.frame_time, MotionSplitParams{}).size(),
+      10u);
+  // ...but eval's segments are clean's: the whole clip.
+  std::vector<float> copy = clip.rotations;
+  const engine::ClipConditioning conditioning = engine::condition_rotations(
+      engine::PopsMode::detect, {copy.data(), clip.frames, clip.joints()}, clip.frame_time,
+      clip.skeleton->parents);
+  const EvalClip prepared = prepare_clip("flips", clip, EvalConfig{});
+  EXPECT_TRUE(prepared.steps.empty());
+  ASSERT_EQ(prepared.segments.size(), conditioning.segments.size());
+  for (std::size_t s = 0; s < prepared.segments.size(); ++s) {
+    EXPECT_EQ(prepared.segments[s].begin, conditioning.segments[s].begin);
+    EXPECT_EQ(prepared.segments[s].end, conditioning.segments[s].end);
+  }
+  EXPECT_EQ(prepared.segments.size(), 1u);
 }
 
 TEST(EvalCommand, UsageErrorsSayWhy) {
