@@ -29,6 +29,13 @@ std::vector<double> median_steps(std::span<const JointQuality> joints) {
   return medians;
 }
 
+std::vector<std::uint8_t> flipping_joints(std::span<const JointQuality> joints) {
+  std::vector<std::uint8_t> flipping;
+  flipping.reserve(joints.size());
+  for (const JointQuality& q : joints) flipping.push_back(q.joint_class == JointClass::flipping);
+  return flipping;
+}
+
 JointQuality classify_joint(RotationView rotations, int joint, std::span<double> steps_out) {
   JointQuality quality;
   const int steps_count = rotations.frames - 1;

@@ -16,6 +16,7 @@
 //   rounding; moving    otherwise.
 // Medians are robust to sparse pops: a clip with the spec's impulse noise classifies as its
 // clean version does. A clip of one frame has no steps: every joint is constant.
+#include <cstdint>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -51,6 +52,9 @@ std::vector<JointQuality> classify_joints(RotationView rotations);
 // Each joint's median_step, in joint order: what the noise estimate and the impossible-step
 // split would otherwise take again of the same step angles.
 std::vector<double> median_steps(std::span<const JointQuality> joints);
+// 1 for each flipping joint, 0 for the others, in joint order: the mask the impossible-step
+// split and the pop stage skip (a flip is not motion).
+std::vector<std::uint8_t> flipping_joints(std::span<const JointQuality> joints);
 // `steps` (optional, frames - 1 entries): receives the joint's step angles geodesic(q[t], q[t+1]),
 // which the impossible-step test (kernels/motion_split.hpp, StepAngles) reads again.
 JointQuality classify_joint(RotationView rotations, int joint, std::span<double> steps = {});

@@ -130,8 +130,7 @@ Status PopSkeletonJob::run() const {
       if (!flagged(t, j) || residual[std::size_t(j)].empty()) continue;
       const double own = residual[std::size_t(j)][std::size_t(t)];
       const double own_detour = strong_detour > 0 && inside(t) ? detour(t, j) : 0.0;
-      const bool strong =
-          strong_detour > 0 && own_detour > strong_detour && own_detour > strong_at(j);
+      const bool strong = own_detour > strong_detour && own_detour > strong_at(j);
       bool motion = false;
       for (int k : neighbours[std::size_t(j)])
         for (int u = std::max(0, t - reach); u <= std::min(F - 1, t + reach) && !motion; ++u)

@@ -228,9 +228,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   // tell); a flipping joint is all pops to the test over its whole curve: where the stage
   // repairs, it is tested between its flips instead (it has no skeleton neighbours to ask: it is
   // garbage).
-  std::vector<std::uint8_t> flipping(static_cast<std::size_t>(J));
-  for (int j = 0; j < J; ++j)
-    flipping[std::size_t(j)] = c.joints[std::size_t(j)].joint_class == JointClass::flipping;
+  const std::vector<std::uint8_t> flipping = flipping_joints(c.joints);
   // Below kPopsRepairMinFps the per-joint test alone flags fast limbs; with the skeleton known,
   // its neighbours rule out most of them (kernels/pop_skeleton.hpp), and the detour test finds
   // the pops fast motion hides from the fit (kernels/pop_detour.hpp).
@@ -325,13 +323,10 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
           c.repaired_joints[std::size_t(j)] = classify_joint(
               view, j, std::span<double>(step_angles).subspan(std::size_t(j) * steps, steps));
     });
-    std::vector<std::uint8_t> flipping_after(static_cast<std::size_t>(J));
-    for (int j = 0; j < J; ++j)
-      flipping_after[std::size_t(j)] =
-          c.repaired_joints[std::size_t(j)].joint_class == JointClass::flipping;
     c.repaired_segments =
         split_segments(F, find_impossible_steps(angles, frame_time, MotionSplitParams{},
-                                                flipping_after, median_steps(c.repaired_joints)));
+                                                flipping_joints(c.repaired_joints),
+                                                median_steps(c.repaired_joints)));
   }
   return c;
 }

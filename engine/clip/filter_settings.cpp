@@ -247,10 +247,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
     if (known.segments) {
       r.segments = *known.segments;
     } else {
-      std::vector<std::uint8_t> flipping;
-      for (const JointQuality& q : qualities())
-        flipping.push_back(q.joint_class == JointClass::flipping);
-      r.segments = motion_segments(clip.rotation_view(), clip.frame_time, flipping);
+      r.segments =
+          motion_segments(clip.rotation_view(), clip.frame_time, flipping_joints(qualities()));
     }
     if (r.segments.size() <= 1) r.segments.clear();
   }

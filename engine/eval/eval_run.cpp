@@ -109,12 +109,8 @@ EvalClip prepare_clip(std::string name, Clip source, const EvalConfig& config, i
   if (config.split_impossible) {
     // As clean splits (engine/clip/clip_conditioning.cpp): a flipping joint's flips are not
     // motion and cut nothing (06_14's LThumb would otherwise cut that clip into 18 segments).
-    const std::vector<JointQuality> quality = classify_joints(c.clean.rotation_view());
-    std::vector<std::uint8_t> flipping(quality.size());
-    for (std::size_t j = 0; j < quality.size(); ++j)
-      flipping[j] = quality[j].joint_class == JointClass::flipping;
-    c.steps =
-        find_impossible_steps(c.clean.rotation_view(), c.clean.frame_time, config.split, flipping);
+    c.steps = find_impossible_steps(c.clean.rotation_view(), c.clean.frame_time, config.split,
+                                    flipping_joints(classify_joints(c.clean.rotation_view())));
   }
   c.segments = split_segments(c.clean.frames, c.steps);
   c.geometry = describe_clip(c.clean, config.unit_cm, c.segments);
@@ -234,8 +230,7 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
             config.pop_stage, {noisy.repaired.data(), clip.clean.frames, clip.clean.joints()},
             clip.clean.frame_time, clip.clean.skeleton->parents);
         noisy.garbage = cond.garbage;
-        for (const JointQuality& q : cond.joints)
-          noisy.flipping.push_back(q.joint_class == JointClass::flipping ? 1 : 0);
+        noisy.flipping = flipping_joints(cond.joints);
         noisy.pops = cond.pop_count();
         const std::size_t J = std::size_t(clip.clean.joints());
         auto moved = [&](const std::vector<float>& rotations, std::size_t sample) {
