@@ -28,6 +28,8 @@ Status PopDetourJob::validate() const {
   if (steps && (steps->joints != rotations.joints || step_offset < 0 ||
                 (rotations.frames > 1 && step_offset + rotations.frames > steps->frames)))
     return Status::error("pop detour test: the step angles do not cover the rotations' frames");
+  if (!median_detours.empty() && median_detours.size() != std::size_t(rotations.joints))
+    return Status::error("pop detour test: median_detours must have one entry per joint");
   return {};
 }
 
@@ -50,7 +52,9 @@ Status PopDetourJob::run() const {
     // Header, "Noise": at least kDetourOverMedian x the joint's median detour.
     work.clear();  // E(t) of 1 <= t < F - 1
     if (F > 2) work.assign(detour.begin() + 1, detour.begin() + (F - 1));
-    const double limit = std::max(threshold, noise_floor(kDetourOverMedian, work));
+    const double median_detour = noise_floor(1.0, work);
+    if (!median_detours.empty()) median_detours[std::size_t(j)] = median_detour;
+    const double limit = std::max(threshold, kDetourOverMedian * median_detour);
     for (int t = 2; t + 2 < F; ++t) {
       const double e = detour[std::size_t(t)];
       if (!(e > limit) || e < detour[std::size_t(t - 1)] || !(e > detour[std::size_t(t + 1)]))

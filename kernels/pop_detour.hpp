@@ -64,6 +64,10 @@ struct PopDetourJob {
   // steps->at(step_offset + t, j); without them the job measures them (the same bits).
   const StepAngles* steps = nullptr;
   int step_offset = 0;
+  // Optional, one per joint: receives each tested joint's median detour E(t), 1 <= t < F - 1
+  // (0 with fewer than kNoiseMinSteps of them), the median the "Noise" floor scales; the skeleton
+  // test's strong detours (kernels/pop_skeleton.hpp) read it instead of measuring it again.
+  std::span<double> median_detours;
 
   Status validate() const;
   Status run() const;

@@ -25,6 +25,8 @@ Status PopSkeletonJob::validate() const {
   if (pop_group < 0) return Status::error("pop skeleton test: pop_group must be >= 0 joints");
   if (!(strong_detour >= 0) || !std::isfinite(strong_detour))
     return Status::error("pop skeleton test: strong_detour must be a finite angle >= 0 rad");
+  if (!median_detours.empty() && median_detours.size() != J)
+    return Status::error("pop skeleton test: median_detours must have one entry per joint");
   return params.validate();
 }
 
@@ -111,15 +113,19 @@ Status PopSkeletonJob::run() const {
                       load_quat(rotations.at(t + 1, k)));
   };
   const auto inside = [&](int t) { return t >= 1 && t + 1 < F; };
-  // Per joint, max(strong_detour, kStrongDetourOverMedian x its median detour), measured where
-  // first needed.
+  // Per joint, max(strong_detour, kStrongDetourOverMedian x its median detour): the detour
+  // test's median where given, else measured where first needed.
   std::vector<double> strong_limit(static_cast<std::size_t>(J), -1.0), detours;
   const auto strong_at = [&](int j) {
     double& limit = strong_limit[std::size_t(j)];
     if (limit < 0) {
-      detours.clear();
-      for (int t = 1; t + 1 < F; ++t) detours.push_back(detour(t, j));
-      limit = std::max(strong_detour, noise_floor(kStrongDetourOverMedian, detours));
+      double median_detour = median_detours.empty() ? std::nan("") : median_detours[std::size_t(j)];
+      if (std::isnan(median_detour)) {
+        detours.clear();
+        for (int t = 1; t + 1 < F; ++t) detours.push_back(detour(t, j));
+        median_detour = noise_floor(1.0, detours);
+      }
+      limit = std::max(strong_detour, kStrongDetourOverMedian * median_detour);
     }
     return limit;
   };

@@ -52,7 +52,11 @@ struct PopSkeletonJob {
   // Flagged neighbours do not count within a group of at most this many flagged joints (0: they
   // always count; the joint count: never).
   int pop_group = kPopGroup;
-  double strong_detour = 0;            // rad, header "Strong detours"; 0: the residual test alone
+  double strong_detour = 0;  // rad, header "Strong detours"; 0: the residual test alone
+  // Optional, one per joint: each joint's median detour on these very rotations, as
+  // PopDetourJob::median_detours gives it (NaN: not given); without it the test measures the
+  // joints it needs (the same bits).
+  std::span<const double> median_detours;
   RotationView rotations;              // [F][J], the clip (segment) the flags belong to
   std::span<const int> parents;        // one per joint, -1 for a root
   std::span<const std::uint8_t> skip;  // optional, one per joint: garbage, not a neighbour

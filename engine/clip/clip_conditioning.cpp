@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 #include <numeric>
 #include <stdexcept>
@@ -87,6 +88,9 @@ struct SegmentPopTest {
   const StepAngles* steps = nullptr;                // the classification's, of the whole clip
   int step_offset = 0;                              // the segment's first frame
   double strong_detour = 0;  // the skeleton test's (kernels/pop_skeleton.hpp)
+  // With strong_detour: one per joint, the detour test's median detours, which the skeleton
+  // test reads.
+  std::span<double> median_detours;
   std::span<std::uint8_t> flags;
 
   void find() const {
@@ -106,6 +110,9 @@ struct SegmentPopTest {
     job.skip = flipping;
     job.flags = flags;
     job.threshold = pop_detour_threshold(frame_time);
+    // NaN for the joints the job skips: the skeleton test measures those itself.
+    std::fill(median_detours.begin(), median_detours.end(), std::nan(""));
+    job.median_detours = median_detours;
     job.steps = steps;
     job.step_offset = step_offset;
     run_joints_in_parallel(job);
@@ -120,6 +127,7 @@ struct SegmentPopTest {
     PopSkeletonJob job;
     job.pop_group = pop_group;
     job.strong_detour = strong_detour;
+    job.median_detours = median_detours;
     job.rotations = rotations;
     job.parents = parents;
     job.params = params;
@@ -246,6 +254,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     return RotationSpan{rotations.data + std::size_t(seg.begin) * std::size_t(J) * 4, seg.frames(),
                         J};
   };
+  std::vector<double> median_detours(high_rate ? 0 : std::size_t(J));
   const auto segment_test = [&](const Segment& seg, std::vector<std::uint8_t>& clip_flags) {
     const RotationSpan part = segment_rotations(seg);
     SegmentPopTest test;
@@ -260,7 +269,10 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     test.step_offset = seg.begin;
     // Below kPopsRepairMinFps, where the skeleton test judges every flag (measured there only:
     // README "Pops and garbage joints", "Strong detours").
-    if (!high_rate) test.strong_detour = kPopStrongDetour;
+    if (!high_rate) {
+      test.strong_detour = kPopStrongDetour;
+      test.median_detours = median_detours;
+    }
     test.flags = segment_slice(clip_flags, seg, J);
     return test;
   };

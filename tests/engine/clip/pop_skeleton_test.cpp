@@ -14,6 +14,7 @@
 
 #include "core/quaternion.hpp"
 #include "engine/clip/clip_conditioning.hpp"
+#include "kernels/median.hpp"
 #include "kernels/pop_detour.hpp"
 #include "kernels/pop_repair.hpp"
 #include "kernels/pop_skeleton.hpp"
@@ -206,7 +207,10 @@ TEST(PopSkeleton, AStrongDetourIsVetoedOnlyByANeighbourThatTurnsBackToo) {
   ASSERT_GT(detour(2), kPopStrongDetour);
   ASSERT_LT(detour(1), kPopCoherence * detour(2));
 
-  const auto kept = [&](const test::Motion& motion, double strong_detour) {
+  // The verdict on the shin's flag, with the joints' median detours measured by the skeleton
+  // test itself and, as the pop stage runs it, handed over by the detour test: the same verdict.
+  const auto verdict = [&](const test::Motion& motion, double strong_detour,
+                           std::span<const double> medians) {
     std::vector<std::uint8_t> flags(std::size_t(kFrames) * kJoints, 0);
     flags[std::size_t(kAt) * kJoints + 2] = 1;
     PopSkeletonJob job;
@@ -215,8 +219,21 @@ TEST(PopSkeleton, AStrongDetourIsVetoedOnlyByANeighbourThatTurnsBackToo) {
     job.parents = kParents;
     job.flags = flags;
     job.strong_detour = strong_detour;
+    job.median_detours = medians;
     EXPECT_TRUE(job.run().ok());
     return flags[std::size_t(kAt) * kJoints + 2] == 1;
+  };
+  const auto kept = [&](const test::Motion& motion, double strong_detour) {
+    std::vector<std::uint8_t> detour_flags(std::size_t(kFrames) * kJoints, 0);
+    std::vector<double> medians(kJoints, -1.0);
+    PopDetourJob detours;
+    detours.rotations = motion.view();
+    detours.flags = detour_flags;
+    detours.median_detours = medians;
+    EXPECT_TRUE(detours.run().ok());
+    const bool alone = verdict(motion, strong_detour, {});
+    EXPECT_EQ(verdict(motion, strong_detour, medians), alone);
+    return alone;
   };
   EXPECT_FALSE(kept(m, 0));
   EXPECT_TRUE(kept(m, kPopStrongDetour));
@@ -240,6 +257,20 @@ TEST(PopSkeleton, AStrongDetourIsVetoedOnlyByANeighbourThatTurnsBackToo) {
                    shin_detours.end());
   ASSERT_GT(kStrongDetourOverMedian * shin_detours[shin_detours.size() / 2], detour(2));
   EXPECT_FALSE(kept(noisy, kPopStrongDetour));
+  // A median handed over is read, not measured again: the clean shin's with the noisy one's.
+  {
+    std::vector<std::uint8_t> detour_flags(std::size_t(kFrames) * kJoints, 0);
+    std::vector<double> medians(kJoints, std::nan(""));
+    PopDetourJob detours;
+    detours.rotations = noisy.view();
+    detours.flags = detour_flags;
+    detours.median_detours = medians;
+    ASSERT_TRUE(detours.run().ok());
+    std::vector<double> all = shin_detours;  // the spec's median: of 88, the middle two's mean
+    EXPECT_EQ(medians[2], median(all));
+    EXPECT_FALSE(verdict(m, kPopStrongDetour, medians));
+    EXPECT_TRUE(verdict(m, kPopStrongDetour, {}));
+  }
 
   const test::Motion swing = limb({0, 1, 1, 1, 1}, 0.8);
   ASSERT_GT(pop_detour(swing.at(kAt - 1, 2), swing.at(kAt, 2), swing.at(kAt + 1, 2)),
