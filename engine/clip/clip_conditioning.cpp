@@ -15,6 +15,7 @@
 #include "engine/run/run_summary.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/pop_detour.hpp"
+#include "kernels/pop_hinge.hpp"
 #include "kernels/pop_repair.hpp"
 #include "kernels/pop_screen.hpp"
 #include "kernels/pop_skeleton.hpp"
@@ -57,7 +58,7 @@ void run_joints_in_parallel(const Job& job, int joints, Slice slice) {
   if (!error.empty()) throw std::runtime_error("pop repair: " + error);
 }
 
-// PopFindJob and PopDetourJob, sliced by their joint_begin and joint_end.
+// PopFindJob, PopDetourJob and PopHingeJob, sliced by their joint_begin and joint_end.
 template <class Job>
 void run_joints_in_parallel(const Job& job) {
   run_joints_in_parallel(job, job.rotations.joints, [](Job slice, int begin, int end) {
@@ -284,6 +285,15 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
       test.skeleton();
     }
   }
+  // A hinge joint's pops (kernels/pop_hinge.hpp), over the whole clip: at any frame rate, and on
+  // a frame that is a segment of its own.
+  std::vector<Hinge> hinges(static_cast<std::size_t>(J));
+  PopHingeJob hinge_test;
+  hinge_test.rotations = view;
+  hinge_test.skip = flipping;
+  hinge_test.flags = flags;
+  hinge_test.hinges = hinges;
+  run_joints_in_parallel(hinge_test);
   // A clip with pops (kManyPopsFlagged, filter_settings.hpp). Below kPopsRepairMinFps auto
   // repairs it from kAutoRepairMinFps up (the low-rate test needs the skeleton). At
   // kPopsRepairMinFps and above, the detour test adds the pops that a fast joint's fit error hid,
@@ -317,6 +327,17 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
       repair_segment(
           part, part_flags,
           find_pops_between_flips({part.data, part.frames, J}, flipping, params, part_flags));
+    }
+  // A flagged sample of a hinge that the segment's repair could not reach (a segment of one
+  // frame) is put back on the hinge's curve.
+  if (c.repaired)
+    for (std::size_t i = 0; i < flags.size(); ++i) {
+      const Hinge& hinge = hinges[i % std::size_t(J)];
+      if (!flags[i] || !hinge.found) continue;
+      float* const sample = rotations.data + i * 4;
+      const Quat q = load_quat(sample);
+      if (hinge_distance(hinge, q) > kHingeTolerance)
+        store_quat(project_onto_hinge(hinge, q), sample);
     }
   for (std::size_t i = 0; i < flags.size(); ++i)
     if (flags[i]) {

@@ -46,7 +46,9 @@ struct ClipConditioning {
 // kManyPopsFlagged of its samples, from kAutoRepairMinFps up, and only counts the others
 // (and every clip without `parents`). At kPopsRepairMinFps and above, a clip with that many flags
 // (and `parents`) gets the detour test's flags too, each kept only where no skeleton neighbour
-// moves with it.
+// moves with it. At every rate the hinge test (kernels/pop_hinge.hpp) adds the pops that take a
+// joint driven about one axis off its curve, over the whole clip; a flagged hinge sample that no
+// segment's repair reaches (a segment of one frame) is repaired onto the curve.
 ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, double frame_time,
                                      std::span<const int> parents = {});
 

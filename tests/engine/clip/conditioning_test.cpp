@@ -18,6 +18,7 @@
 #include "kernels/joint_quality.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/noise_model.hpp"
+#include "kernels/pop_hinge.hpp"
 #include "tests/test_support.hpp"
 
 namespace mocap {
@@ -245,6 +246,66 @@ TEST(Conditioning, BelowSixtyFpsAutoOnlyCountsAndDetectNeverChangesAnything) {
   EXPECT_FALSE(d.repaired);
   EXPECT_EQ(d.pops[kPopped], 6);
   EXPECT_EQ(fast.rotations, fast_before.rotations);
+}
+
+// A 30 fps chain whose frame 0 is a T-pose (every joint at identity; the root turns by more than
+// kernels/motion_split.hpp's max_step to frame 1, so frame 0 is a segment of its own) and
+// whose joint 2 is a hinge through identity (kernels/pop_hinge.hpp), the others turning about
+// several axes. A pop off the hinge's axis on the T-pose frame is found by the hinge test alone
+// (no other test reads a segment of one frame) and, repaired, put back on the hinge's curve: here
+// the T-pose itself. A pop on the hinge mid-clip is repaired onto the motion; without pops nothing
+// is flagged or changed; detect only counts.
+TEST(Conditioning, AHingesPopsAreFoundEvenOnAFrameOfItsOwn) {
+  constexpr int F = 120, J = 4, kHinge = 2;
+  const std::vector<int> parents{-1, 0, 1, 2};
+  std::mt19937_64 rng(21);
+  Vec3 axes[J], sides[J];
+  for (int j = 0; j < J; ++j) {
+    const Vec3 a = log(test::random_rotation(rng)), b = log(test::random_rotation(rng));
+    axes[j] = (1 / norm(a)) * a;
+    sides[j] = (1 / norm(b - dot(b, axes[j]) * axes[j])) * (b - dot(b, axes[j]) * axes[j]);
+  }
+  test::Motion clean{F, J, std::vector<float>(std::size_t(F) * J * 4)};
+  for (int t = 1; t < F; ++t)
+    for (int j = 0; j < J; ++j) {
+      const double theta = (j == 0 ? 2.4 : 1.0) + 0.3 * std::sin(0.05 * t + j);
+      const double sway = j == kHinge ? 0.0 : 0.2 * std::sin(0.04 * t + 2 * j);
+      store_quat(exp(theta * axes[j]) * exp(sway * sides[j]), clean.span().at(t, j));
+    }
+  for (int j = 0; j < J; ++j) store_quat(Quat{}, clean.span().at(0, j));
+  make_hemisphere_continuous(clean.span());
+
+  test::Motion popped = clean;
+  store_quat(exp(0.5 * sides[kHinge]), popped.span().at(0, kHinge));
+  store_quat(clean.at(60, kHinge) * exp(0.4 * sides[kHinge]), popped.span().at(60, kHinge));
+  const auto flagged = [](const ClipConditioning& c, int t, int j) {
+    for (std::size_t i = 0; i + 1 < c.pop_samples.size(); i += 2)
+      if (c.pop_samples[i] == t && c.pop_samples[i + 1] == j) return true;
+    return false;
+  };
+
+  test::Motion detected = popped;
+  const ClipConditioning d =
+      engine::condition_rotations(PopsMode::detect, detected.span(), 1.0 / 30, parents);
+  ASSERT_FALSE(d.segments.empty());
+  EXPECT_EQ(d.segments[0].begin, 0);
+  EXPECT_EQ(d.segments[0].end, 1);
+  EXPECT_TRUE(flagged(d, 0, kHinge));
+  EXPECT_TRUE(flagged(d, 60, kHinge));
+  EXPECT_EQ(detected.rotations, popped.rotations);
+
+  test::Motion repaired = popped;
+  const ClipConditioning r =
+      engine::condition_rotations(PopsMode::repair, repaired.span(), 1.0 / 30, parents);
+  EXPECT_TRUE(r.repaired);
+  EXPECT_LT(geodesic(repaired.at(0, kHinge), Quat{}), 1e-5);
+  EXPECT_LT(geodesic(repaired.at(60, kHinge), clean.at(60, kHinge)), 0.02);
+
+  test::Motion untouched = clean;
+  const ClipConditioning none =
+      engine::condition_rotations(PopsMode::repair, untouched.span(), 1.0 / 30, parents);
+  EXPECT_EQ(none.pop_count(), 0u);
+  EXPECT_EQ(untouched.rotations, clean.rotations);
 }
 
 // Below 60 fps the pop test looks for runs of at most 2 and wants a flag 8 times further from
