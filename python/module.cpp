@@ -33,6 +33,7 @@
 #include "engine/clip/clip_conditioning.hpp"
 #include "engine/clip/filter_settings.hpp"
 #include "engine/clip/foot_stage.hpp"
+#include "engine/clip/hinge_stage.hpp"
 #include "engine/clip/motion_check.hpp"
 #include "engine/clip/motion_guard.hpp"
 #include "engine/run/pipeline.hpp"
@@ -211,6 +212,9 @@ Outcome run_clip(const FilterSettings& settings, Clip input, int threads) {
   });
   for (const Status& s : status)
     if (!s.ok()) throw py::value_error(prefix + s.message());
+  if (const Status s = engine::project_hinges_after_auto(settings, out.resolved, input, out.output);
+      !s.ok())
+    throw py::value_error(prefix + "hinges: " + s.message());
   finish();
   return out;
 }

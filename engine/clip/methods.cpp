@@ -480,7 +480,9 @@ MethodEntry none_entry() {
 MethodEntry automatic_entry() {
   return {
       .name = "auto",
-      .help = "auto: the method and its parameters chosen per clip from its measured noise",
+      .help =
+          "auto: the method and its parameters chosen per clip from its measured noise; then "
+          "the joints the clip turns about one axis (knees, elbows) put back on it",
       .validate = nothing_to_check,
       .to_json = no_parameters,
       .needs_noise = [](const FilterSettings&) { return true; },
@@ -713,7 +715,7 @@ const std::vector<EvalVariant>& variants() {
            [] {
              return std::string(
                  "--method auto: the method and parameters chosen per clip (choose_automatic), "
-                 "after pop repair");
+                 "after pop repair, then its hinges put back on their curves (hinge_stage)");
            },
        .settings = [](const ParamPoint*, double,
                       double) { return std::optional(asked(Method::automatic)); },

@@ -12,6 +12,7 @@
 
 #include "core/quaternion.hpp"
 #include "engine/clip/clip_conditioning.hpp"
+#include "engine/clip/hinge_stage.hpp"
 #include "engine/clip/motion_guard.hpp"
 #include "engine/eval/eval_methods.hpp"
 #include "kernels/joint_quality.hpp"
@@ -167,6 +168,16 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
       used["sigma_hat"] = sigma_hats[s];
       resolved->push_back(used);
     }
+  }
+  if (method.automatic()) {
+    // As `clean` does (engine/clip/hinge_stage.hpp), with each segment's noise estimate.
+    const std::size_t frames = input.size() / (std::size_t(joints) * 4);
+    const Status s =
+        project_hinges_in_segments({input.data(), int(frames), joints},
+                                   {out.data(), int(frames), joints}, clip.segments, sigma_hats,
+                                   any_garbage ? std::span<const std::uint8_t>(noisy.garbage)
+                                               : std::span<const std::uint8_t>{});
+    if (!s) return s;
   }
   if (guard) {
     Clip filtered = with_motion(clip.clean, std::move(out), std::move(out_translations));

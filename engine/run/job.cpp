@@ -10,6 +10,7 @@
 #include "engine/clip/clip_checks.hpp"
 #include "engine/clip/clip_conditioning.hpp"
 #include "engine/clip/foot_stage.hpp"
+#include "engine/clip/hinge_stage.hpp"
 #include "engine/clip/motion_check.hpp"
 #include "engine/clip/motion_guard.hpp"
 #include "engine/run/automatic_tally.hpp"
@@ -176,6 +177,15 @@ RunSummary run_job(const Job& job) {
       item.fail(s.message());
   };
   stages.finish = [&](WorkItem& item) {
+    {
+      // auto's hinges (engine/clip/hinge_stage.hpp), on the filtered clip.
+      const auto& state = std::any_cast<const ClipState&>(item.context);
+      const Timed timed(times, StageTimes::filter);
+      if (const Status s =
+              project_hinges_after_auto(settings, state.resolved, item.input, item.output);
+          !s.ok())
+        return item.fail("hinges: " + s.message());
+    }
     if (guard) {
       // Lock, measure and, where the clip came out worse than it went in, fall back.
       auto& state = std::any_cast<ClipState&>(item.context);
