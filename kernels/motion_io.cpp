@@ -48,4 +48,12 @@ Status validate_sample_flags(std::string_view job, RotationView rotations,
   return {};
 }
 
+Status validate_joint_slice(std::string_view job, int joint_begin, int joint_end, int joints) {
+  const int end = joint_end < 0 ? joints : joint_end;
+  if (joint_begin < 0 || joint_begin > end || end > joints)
+    return Status::error(std::string(job) + ": joints [" + std::to_string(joint_begin) + ", " +
+                         std::to_string(end) + ") outside the clip's " + std::to_string(joints));
+  return {};
+}
+
 }  // namespace mocap

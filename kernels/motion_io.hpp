@@ -41,5 +41,8 @@ struct MotionIO {
 Status validate_sample_flags(std::string_view job, RotationView rotations,
                              std::span<const std::uint8_t> skip,
                              std::span<const std::uint8_t> flags);
+// The joint slice [joint_begin, joint_end) of a job that runs in joint slices (joint_end -1: to
+// the last joint) lies within the clip's `joints`. Errors start with `job`.
+Status validate_joint_slice(std::string_view job, int joint_begin, int joint_end, int joints);
 
 }  // namespace mocap

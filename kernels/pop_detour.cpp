@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <string>
 #include <vector>
 
 namespace mocap {
@@ -20,11 +19,9 @@ Status PopDetourJob::validate() const {
   if (Status s = validate_sample_flags("pop detour test", rotations, skip, flags); !s) return s;
   if (!(threshold > 0) || !std::isfinite(threshold))
     return Status::error("pop detour test: threshold must be a finite angle > 0 rad");
-  const int end = joint_end < 0 ? rotations.joints : joint_end;
-  if (joint_begin < 0 || joint_begin > end || end > rotations.joints)
-    return Status::error("pop detour test: joints [" + std::to_string(joint_begin) + ", " +
-                         std::to_string(end) + ") outside the clip's " +
-                         std::to_string(rotations.joints));
+  if (Status s = validate_joint_slice("pop detour test", joint_begin, joint_end, rotations.joints);
+      !s)
+    return s;
   if (steps && (steps->joints != rotations.joints || step_offset < 0 ||
                 (rotations.frames > 1 && step_offset + rotations.frames > steps->frames)))
     return Status::error("pop detour test: the step angles do not cover the rotations' frames");

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <string>
 #include <vector>
 
 namespace mocap {
@@ -134,11 +133,9 @@ Status PopHingeJob::validate() const {
   if (max_run < 1) return Status::error("pop hinge test: max_run must be at least 1 frame");
   if (!(pop_angle >= tolerance) || !std::isfinite(pop_angle))
     return Status::error("pop hinge test: pop_angle must be a finite angle >= tolerance");
-  const int end = joint_end < 0 ? rotations.joints : joint_end;
-  if (joint_begin < 0 || joint_begin > end || end > rotations.joints)
-    return Status::error("pop hinge test: joints [" + std::to_string(joint_begin) + ", " +
-                         std::to_string(end) + ") outside the clip's " +
-                         std::to_string(rotations.joints));
+  if (Status s = validate_joint_slice("pop hinge test", joint_begin, joint_end, rotations.joints);
+      !s)
+    return s;
   if (!hinges.empty() && hinges.size() != std::size_t(rotations.joints))
     return Status::error("pop hinge test: hinges must have one entry per joint");
   return {};
@@ -148,17 +145,17 @@ Status PopHingeJob::run() const {
   if (Status s = validate(); !s) return s;
   const int F = rotations.frames, J = rotations.joints;
   const int end = joint_end < 0 ? J : joint_end;
+  const double limit = std::sin(0.5 * tolerance);  // off_axis_sine's bound for `tolerance`
   std::vector<Quat> q(std::size_t(std::max(F, 0)));
   for (int j = joint_begin; j < end; ++j) {
     if (!hinges.empty()) hinges[std::size_t(j)] = {};
     if (!skip.empty() && skip[std::size_t(j)]) continue;
-    if (ruled_out_by_probe(rotations, j, std::sin(0.5 * tolerance))) continue;
+    if (ruled_out_by_probe(rotations, j, limit)) continue;
     for (int t = 0; t < F; ++t) q[std::size_t(t)] = load_quat(rotations.at(t, j));
     const Hinge hinge = find_hinge(q, tolerance, share);
     if (!hinges.empty()) hinges[std::size_t(j)] = hinge;
     if (!hinge.found) continue;
     // Runs of samples off the curve; the short ones are pops.
-    const double limit = std::sin(0.5 * tolerance);
     const Quat back = inverse(hinge.reference);
     const auto off = [&](int t) {
       return off_axis_sine(vector_part(back * q[std::size_t(t)]), hinge.axis) > limit;

@@ -336,7 +336,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
       if (!flags[i] || !hinge.found) continue;
       float* const sample = rotations.data + i * 4;
       const Quat q = load_quat(sample);
-      if (hinge_distance(hinge, q) > kHingeTolerance)
+      if (hinge_distance(hinge, q) > hinge_test.tolerance)
         store_quat(project_onto_hinge(hinge, q), sample);
     }
   for (std::size_t i = 0; i < flags.size(); ++i)

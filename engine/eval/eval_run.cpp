@@ -171,12 +171,11 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
   }
   if (method.automatic()) {
     // As `clean` does (engine/clip/hinge_stage.hpp), with each segment's noise estimate.
-    const std::size_t frames = input.size() / (std::size_t(joints) * 4);
-    const Status s =
-        project_hinges_in_segments({input.data(), int(frames), joints},
-                                   {out.data(), int(frames), joints}, clip.segments, sigma_hats,
-                                   any_garbage ? std::span<const std::uint8_t>(noisy.garbage)
-                                               : std::span<const std::uint8_t>{});
+    const int frames = clip.clean.frames;
+    const Status s = project_hinges_in_segments(
+        {input.data(), frames, joints}, {out.data(), frames, joints}, clip.segments, sigma_hats,
+        any_garbage ? std::span<const std::uint8_t>(noisy.garbage)
+                    : std::span<const std::uint8_t>{});
     if (!s) return s;
   }
   if (guard) {
