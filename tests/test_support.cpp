@@ -32,6 +32,15 @@ Quat random_rotation(std::mt19937_64& rng) {
   return normalized({n(rng), n(rng), n(rng), n(rng)});
 }
 
+Motion every_nth_frame(RotationView rotations, int first, int stride, int frames) {
+  Motion m{frames, rotations.joints, {}};
+  m.rotations.resize(std::size_t(m.frames) * std::size_t(m.joints) * 4);
+  for (int t = 0; t < m.frames; ++t)
+    for (int j = 0; j < m.joints; ++j)
+      std::copy_n(rotations.at(first + t * stride, j), 4, m.span().at(t, j));
+  return m;
+}
+
 std::vector<float> random_motion(std::mt19937_64& rng, int frames, int joints, double amplitude) {
   std::vector<float> out(std::size_t(frames) * joints * 4);
   std::uniform_real_distribution<double> u(-1.0, 1.0);

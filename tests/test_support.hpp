@@ -33,6 +33,10 @@ struct Motion {
   Quat at(int t, int j) const { return load_quat(view().at(t, j)); }
 };
 
+// Frames first, first + stride, ... of `rotations`, `frames` of them, as a motion of their own
+// (a lower frame rate of a clip, in the pop tests).
+Motion every_nth_frame(RotationView rotations, int first, int stride, int frames);
+
 // A smooth random motion [F][J][4]: each joint a sum of a few random sinusoids in the tangent
 // space around a random base rotation, amplitude up to `amplitude` rad; hemisphere-continuous.
 std::vector<float> random_motion(std::mt19937_64& rng, int frames, int joints,

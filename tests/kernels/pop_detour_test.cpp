@@ -262,11 +262,7 @@ TEST(PopDetourJob, FlagsNextToNothingOnCleanCapturesAt30Fps) {
     const io::BvhReadResult read = io::read_bvh(path);
     ASSERT_TRUE(read.clip) << path;
     const Clip& clip = *read.clip;
-    Motion m{(clip.frames - 1) / 4, clip.joints(), {}};
-    m.rotations.resize(std::size_t(m.frames) * std::size_t(m.joints) * 4);
-    for (int t = 0; t < m.frames; ++t)
-      for (int j = 0; j < m.joints; ++j)
-        std::copy_n(clip.rotation_view().at(1 + 4 * t, j), 4, m.span().at(t, j));
+    const Motion m = test::every_nth_frame(clip.rotation_view(), 1, 4, (clip.frames - 1) / 4);
     std::vector<std::uint8_t> flags(std::size_t(m.frames) * std::size_t(m.joints), 0);
     PopDetourJob job;
     job.rotations = m.view();

@@ -292,11 +292,8 @@ TEST(PopHinge, FindsCmusHingesAndFlagsNothingOnCleanCaptures) {
     ASSERT_TRUE(read.clip) << path;
     const Clip& clip = *read.clip;
     for (const int step : {1, 4}) {
-      Motion m{(clip.frames - 1) / step + 1, clip.joints(), {}};
-      m.rotations.resize(std::size_t(m.frames) * std::size_t(m.joints) * 4);
-      for (int t = 0; t < m.frames; ++t)
-        for (int j = 0; j < m.joints; ++j)
-          std::copy_n(clip.rotation_view().at(step * t, j), 4, m.span().at(t, j));
+      const Motion m =
+          test::every_nth_frame(clip.rotation_view(), 0, step, (clip.frames - 1) / step + 1);
       std::vector<Hinge> hinges;
       const std::vector<std::uint8_t> flags = run_job(m, &hinges);
       EXPECT_EQ(std::count(flags.begin(), flags.end(), 1), 0) << path << " step " << step;

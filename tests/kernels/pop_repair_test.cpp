@@ -59,13 +59,8 @@ Motion real_motion(const std::filesystem::path& path, int frames, int stride = 1
   EXPECT_TRUE(read.clip) << path;
   if (!read.clip) return {};
   const Clip& clip = *read.clip;
-  Motion m;
-  m.joints = clip.joints();
-  m.frames = std::min(frames, (clip.frames - 1) / stride);
-  m.rotations.resize(std::size_t(m.frames) * m.joints * 4);
-  for (int t = 0; t < m.frames; ++t)
-    for (int j = 0; j < m.joints; ++j)
-      std::copy_n(clip.rotation_view().at(1 + t * stride, j), 4, m.span().at(t, j));
+  Motion m = test::every_nth_frame(clip.rotation_view(), 1, stride,
+                                   std::min(frames, (clip.frames - 1) / stride));
   make_hemisphere_continuous(m.span());
   return m;
 }

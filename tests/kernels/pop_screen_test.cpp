@@ -38,11 +38,8 @@ Motion shared_motion(const std::filesystem::path& path, int stride) {
   EXPECT_TRUE(read.clip) << path;
   if (!read.clip) return {};
   const Clip& clip = *read.clip;
-  Motion m{(clip.frames + stride - 1) / stride, clip.joints(), {}};
-  m.rotations.resize(std::size_t(m.frames) * std::size_t(m.joints) * 4);
-  for (int t = 0; t < m.frames; ++t)
-    for (int j = 0; j < m.joints; ++j)
-      std::copy_n(clip.rotation_view().at(t * stride, j), 4, m.span().at(t, j));
+  Motion m =
+      test::every_nth_frame(clip.rotation_view(), 0, stride, (clip.frames + stride - 1) / stride);
   make_hemisphere_continuous(m.span());
   return m;
 }
