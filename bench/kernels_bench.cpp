@@ -3,6 +3,7 @@
 // clip (smooth random motion plus 0.03 rad noise) per iteration.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -11,12 +12,14 @@
 #include "kernels/bilateral.hpp"
 #include "kernels/foot_lock.hpp"
 #include "kernels/forward_kinematics.hpp"
+#include "kernels/hinge_projection.hpp"
 #include "kernels/linear_filter.hpp"
 #include "kernels/median.hpp"
 #include "kernels/motion_split.hpp"
 #include "kernels/nlpm.hpp"
 #include "kernels/noise_model.hpp"
 #include "kernels/pop_detour.hpp"
+#include "kernels/pop_hinge.hpp"
 #include "kernels/pop_repair.hpp"
 #include "kernels/pop_screen.hpp"
 #include "kernels/simd/band_geodesics.hpp"
@@ -189,6 +192,79 @@ BENCHMARK(BM_PopDetour)
     ->Args({31, 1000, 0})
     ->Args({31, 1000, 1})
     ->Unit(benchmark::kMillisecond);
+
+// A motion whose joints turn about one axis each (base Exp(theta(t) a), 1 rad of swing, as CMU's
+// knees and elbows do), but every third joint, which turns about three (sinusoids in its tangent
+// space); then `noise` (kernels/noise_model.hpp). Hemisphere-continuous.
+template <class Noise>
+std::vector<float> hinge_motion(int frames, int joints, const Noise& noise) {
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<float> out(std::size_t(frames) * std::size_t(joints) * 4);
+  for (int j = 0; j < joints; ++j) {
+    const Quat base = normalized({g(rng), g(rng), g(rng), g(rng)});
+    const Vec3 a = [&] {
+      const Vec3 v{g(rng), g(rng), g(rng)};
+      return (1 / norm(v)) * v;
+    }();
+    for (int t = 0; t < frames; ++t) {
+      const Vec3 v = j % 3 == 2 ? Vec3{0.5 * std::sin(0.03 * t), 0.4 * std::sin(0.05 * t + j),
+                                       0.3 * std::sin(0.02 * t + 1)}
+                                : std::sin(0.04 * t + j) * a;
+      store_quat(base * exp(v), out.data() + (std::size_t(t) * std::size_t(joints) + j) * 4);
+    }
+  }
+  add_noise(noise, {out.data(), frames, joints});
+  make_hemisphere_continuous({out.data(), frames, joints});
+  return out;
+}
+
+// The hinge test of a pop (kernels/pop_hinge.hpp), 31 joints x 1000 frames: on the noisy fixture
+// (hinges 0: every joint ruled out on its probe, what a noisy library costs), or on exact hinges
+// with the spec's pops (hinges 1: 21 joints found and tested over every frame, the worst case).
+void BM_PopHinge(benchmark::State& state) {
+  const int frames = 1000, joints = 31;
+  Fixture f(frames, joints);
+  if (state.range(0) != 0) {
+    f.in = hinge_motion(frames, joints, ImpulseNoise{});
+    f.io.rotations = {f.in.data(), frames, joints};
+  }
+  std::vector<std::uint8_t> flags(std::size_t(frames) * std::size_t(joints));
+  PopHingeJob job;
+  job.rotations = f.io.rotations;
+  job.flags = flags;
+  for (auto _ : state) {
+    job.run();
+    benchmark::DoNotOptimize(flags.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_PopHinge)->ArgNames({"hinges"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// auto's hinge projection (kernels/hinge_projection.hpp), 31 joints x 1000 frames with 0.008 rad
+// of noise, the filter's output standing in as its input: on the noisy fixture (hinges 0: every
+// joint ruled out by the chordal screen) or on 21 noisy hinges (hinges 1: fitted and projected).
+void BM_HingeProjection(benchmark::State& state) {
+  const int frames = 1000, joints = 31;
+  Fixture f(frames, joints);
+  if (state.range(0) != 0) {
+    f.in = hinge_motion(frames, joints, GaussianNoise{0.008, 3});
+    f.io.rotations = {f.in.data(), frames, joints};
+  }
+  HingeProjectionJob job;
+  job.input = f.io.rotations;
+  job.output = f.io.filtered_rotations;
+  job.noise_sigma = 0.008;
+  for (auto _ : state) {
+    state.PauseTiming();
+    std::copy(f.in.begin(), f.in.end(), f.out.begin());
+    state.ResumeTiming();
+    job.run();
+    benchmark::DoNotOptimize(f.out.data());
+  }
+  f.count(state);
+}
+BENCHMARK(BM_HingeProjection)->ArgNames({"hinges"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // Forward kinematics of the bof fixture's motion on a random 31-joint tree with a translated
 // root, 1000 frames: every joint (as the motion guard and eval measure positions), or the two
