@@ -178,22 +178,18 @@ Outcome run_clip(const FilterSettings& settings, Clip input, int threads) {
   engine::ClipFeet feet;
   if (lock) feet = engine::detect_feet(input);
   auto finish = [&] {
-    if (guard) {
-      engine::MotionGuardJob g;
-      g.input = &input;
-      g.raw = &raw;
-      g.before = &before;
-      g.segments = &out.resolved.segments;
-      g.feet = lock ? &feet : nullptr;
-      g.output = &out.output;
-      if (const Status s = g.run(); !s.ok()) throw py::value_error(prefix + s.message());
-      out.kept = g.kept;
-      return;
-    }
-    if (!lock) return;
-    if (const Status s = engine::lock_feet_in_segments(feet, out.output, out.resolved.segments);
-        !s.ok())
-      throw py::value_error(prefix + "foot lock: " + s.message());
+    if (!guard && !lock) return;
+    engine::MotionGuardJob g;
+    g.input = guard ? &input : nullptr;
+    g.raw = guard ? &raw : nullptr;
+    g.before = guard ? &before : nullptr;
+    g.guard = guard;
+    g.segments = &out.resolved.segments;
+    g.feet = lock ? &feet : nullptr;
+    g.output = &out.output;
+    if (const Status s = g.run(); !s.ok())
+      throw py::value_error(prefix + (guard ? "" : "foot lock: ") + s.message());
+    if (guard) out.kept = g.kept;
   };
   if (out.resolved.unchanged) {
     out.output = input;

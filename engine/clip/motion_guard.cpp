@@ -78,21 +78,26 @@ bool raises_motion(const MotionMeasure& after, const MotionMeasure& before) {
 }
 
 Status MotionGuardJob::validate() const {
-  if (!input || !before || !segments || !output)
-    return Status::error("motion guard: input, before, segments and output are required");
+  if (!segments || !output) return Status::error("motion guard: segments and output are required");
+  if (guard && (!input || !before))
+    return Status::error(
+        "motion guard: the guard needs the input and the measure of the clip as "
+        "read (before)");
   auto same = [&](const Clip& c) {
     return c.skeleton && c.skeleton == output->skeleton && c.frames == output->frames &&
            c.rotations.size() == output->rotations.size() &&
            c.translations.size() == output->translations.size();
   };
-  if (!same(*input) || (raw && !same(*raw)))
+  if ((input && !same(*input)) || (raw && !same(*raw)))
     return Status::error("motion guard: the input and the output are not the same clip's");
   return {};
 }
 
 Status MotionGuardJob::run() {
   if (Status s = validate(); !s) return s;
-  const ClipFeet contacts = feet ? *feet : ClipFeet{};
+  // The contacts as found, to lock another candidate or to take the lock back; only a guard
+  // that may fall back needs them.
+  const ClipFeet contacts = feet && guard ? *feet : ClipFeet{};
   auto lock = [&](Clip& clip) -> Status {
     *feet = contacts;
     return lock_feet_in_segments(*feet, clip, *segments, lock_scratch);
@@ -106,8 +111,8 @@ Status MotionGuardJob::run() {
       feet && guard ? LegColumns(*output, feet->legs) : LegColumns(*output, {});
   kept = feet ? Kept::filtered_locked : Kept::filtered;
   if (feet)
-    if (Status s = lock(*output); !s) return s;
-  after = measure_motion(*output, before, *segments);
+    if (Status s = lock_feet_in_segments(*feet, *output, *segments, lock_scratch); !s) return s;
+  if (before) after = measure_motion(*output, before, *segments);
   if (!guard || !raises_motion(after, *before)) return {};
 
   if (feet) {

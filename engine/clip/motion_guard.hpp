@@ -7,6 +7,9 @@
 //   filtered and locked -> filtered -> input (pops repaired) locked -> input (pops repaired)
 //   -> the clip as read (which raises nothing by definition).
 // Both are measured inside the resolved segments, as eval scores them.
+// The one step after the filter (and auto's hinges) for `clean` (engine/run/job.cpp), the Python
+// module and eval alike, so that they lock and fall back the same way; with `guard` false it is
+// the foot lock alone.
 // Why it is needed: below 60 fps the noise estimate of a clean capture (0.003-0.010 rad on the
 // shared clips at 30 fps) overlaps that of 0.008 rad of added noise (0.009-0.012), so the rule
 // cannot tell a clean fast clip from a noisy one, and bof's range weights, which change with the
@@ -43,13 +46,15 @@ bool raises_motion(const MotionMeasure& after, const MotionMeasure& before);
 
 struct MotionGuardJob {
   // Inputs.
-  const Clip* input = nullptr;  // the clip after the pop stage, before the filter
-  const Clip* raw = nullptr;    // the clip as read; nullptr: the input is the last resort
-  // The clip as read, measure_motion(raw, nullptr, *segments): contacts included.
+  // The clip after the pop stage, before the filter; required with the guard.
+  const Clip* input = nullptr;
+  const Clip* raw = nullptr;  // the clip as read; nullptr: the input is the last resort
+  // The clip as read, measure_motion(raw, nullptr, *segments): contacts included. Required
+  // with the guard; without it, nullptr leaves `after` unmeasured.
   const MotionMeasure* before = nullptr;
   const std::vector<Segment>* segments = nullptr;  // resolved segments (may be empty)
   ClipFeet* feet = nullptr;  // contacts found on `input`; nullptr: no foot lock
-  bool guard = true;         // false: filtered (and locked) whatever it measures
+  bool guard = true;         // false: filtered (and locked) whatever it measures: the lock alone
   // Optional: the lock's working memory, reused across clips (lock_feet's `scratch`).
   FootLockScratch* lock_scratch = nullptr;
   // In and out: the filtered clip; replaced by the candidate kept.
@@ -61,7 +66,8 @@ struct MotionGuardJob {
   Status validate() const;
   // After run(): whether the clip kept something other than the first candidate.
   bool fell_back() const { return kept != (feet ? Kept::filtered_locked : Kept::filtered); }
-  // Locks (when `feet`), measures, and falls back as the header says. `feet` ends as locked for
+  // Locks (when `feet`), measures (when `before`), and with the guard falls back as the header
+  // says. `feet` ends as locked for
   // the candidate kept (or with `locked` false and no stats when it kept an unlocked one).
   Status run();
 };

@@ -178,36 +178,29 @@ Status filter_clip(const EvalClip& clip, const NoisyClip& noisy, EvalMethod meth
                     : std::span<const std::uint8_t>{});
     if (!s) return s;
   }
-  if (guard) {
-    Clip filtered = with_motion(clip.clean, std::move(out), std::move(out_translations));
-    const Clip in = with_motion(clip.clean, input, noisy.translations);
-    const Clip raw = with_motion(clip.clean, noisy.rotations, noisy.translations);
-    ClipFeet feet = repaired ? noisy.repaired_feet : noisy.feet;
-    MotionGuardJob g;
-    g.input = &in;
-    g.raw = &raw;
-    g.before = &noisy.before;
-    g.segments = &clip.segments;
-    g.feet = lock_feet ? &feet : nullptr;
-    g.output = &filtered;
-    const Status s = g.run();
-    out = std::move(filtered.rotations);
-    out_translations = std::move(filtered.translations);
-    if (!s) return s;
-    if (resolved) {
-      *resolved = {{"segments", *resolved}, {"kept", std::string(to_string(g.kept))}};
-      if (lock_feet) (*resolved)["feet"] = feet_json(feet);
-    }
-    return {};
-  }
-  if (!lock_feet) return {};
+  if (!guard && !lock_feet) return {};
+  // Then as `clean` does: the lock and, for auto's runs, the guard (engine/clip/motion_guard.hpp).
   Clip filtered = with_motion(clip.clean, std::move(out), std::move(out_translations));
+  const Clip in = guard ? with_motion(clip.clean, input, noisy.translations) : Clip{};
+  const Clip raw = guard ? with_motion(clip.clean, noisy.rotations, noisy.translations) : Clip{};
   ClipFeet feet = repaired ? noisy.repaired_feet : noisy.feet;
-  const Status locked = lock_feet_in_segments(feet, filtered, clip.segments);
+  MotionGuardJob g;
+  g.input = guard ? &in : nullptr;
+  g.raw = guard ? &raw : nullptr;
+  g.before = guard ? &noisy.before : nullptr;
+  g.guard = guard;
+  g.segments = &clip.segments;
+  g.feet = lock_feet ? &feet : nullptr;
+  g.output = &filtered;
+  const Status s = g.run();
   out = std::move(filtered.rotations);
   out_translations = std::move(filtered.translations);
-  if (!locked) return Status::error("foot locking: " + locked.message());
-  if (resolved) *resolved = {{"segments", *resolved}, {"feet", feet_json(feet)}};
+  if (!s) return guard ? s : Status::error("foot locking: " + s.message());
+  if (resolved) {
+    *resolved = {{"segments", *resolved}};
+    if (guard) (*resolved)["kept"] = std::string(to_string(g.kept));
+    if (lock_feet) (*resolved)["feet"] = feet_json(feet);
+  }
   return {};
 }
 

@@ -186,23 +186,30 @@ RunSummary run_job(const Job& job) {
           !s.ok())
         return item.fail("hinges: " + s.message());
     }
-    if (guard) {
-      // Lock, measure and, where the clip came out worse than it went in, fall back.
+    // Free the input early, only the output goes on; the guard may fall back to it.
+    if (!guard) item.input = {};
+    if (guard || feet.lock) {
+      // Lock and, with the guard, measure and fall back where the clip came out worse than it
+      // went in (engine/clip/motion_guard.hpp). Without the guard its time is the lock's.
       auto& state = std::any_cast<ClipState&>(item.context);
-      const Timed timed(times, StageTimes::guard);
+      const Timed timed(times, guard ? StageTimes::guard : StageTimes::lock);
       MotionGuardJob g;
-      g.input = &item.input;
-      g.raw = &state.raw;
-      g.before = &state.before;
+      g.input = guard ? &item.input : nullptr;
+      g.raw = guard ? &state.raw : nullptr;
+      g.before = guard ? &state.before : nullptr;
+      g.guard = guard;
       g.segments = &state.resolved.segments;
       g.feet = feet.lock ? &state.feet : nullptr;
       g.lock_scratch = &lock_scratch.local();
       g.output = &item.output;
-      if (const Status s = g.run(); !s.ok()) return item.fail(s.message());
-      state.after = std::move(g.after);
-      state.kept = g.kept;
-      state.fell_back = g.fell_back();
-      state.raw = {};
+      if (const Status s = g.run(); !s.ok())
+        return item.fail(guard ? s.message() : "foot lock: " + s.message());
+      if (guard) {
+        state.after = std::move(g.after);
+        state.kept = g.kept;
+        state.fell_back = g.fell_back();
+        state.raw = {};
+      }
       // A library output says per clip what it holds: the parameters ran, but the clip kept
       // something nearer its input.
       if (g.fell_back()) {
@@ -214,15 +221,7 @@ RunSummary run_job(const Job& job) {
         }
       }
     }
-    item.input = {};  // free the input early: only the output goes on
-    if (feet.lock && !guard) {
-      auto& state = std::any_cast<ClipState&>(item.context);
-      const Timed timed(times, StageTimes::lock);
-      if (const Status s = lock_feet_in_segments(state.feet, item.output, state.resolved.segments,
-                                                 &lock_scratch.local());
-          !s.ok())
-        return item.fail("foot lock: " + s.message());
-    }
+    item.input = {};
     if (measure && !guard) {
       auto& state = std::any_cast<ClipState&>(item.context);
       const Timed timed(times, StageTimes::metrics);
