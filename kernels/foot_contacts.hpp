@@ -38,6 +38,7 @@ struct ContactInterval {
   int begin = 0;  // first planted frame
   int end = 0;    // one past the last
   int frames() const { return end - begin; }
+  bool operator==(const ContactInterval&) const = default;
 };
 
 struct FootContactParams {

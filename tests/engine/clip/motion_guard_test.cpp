@@ -151,6 +151,52 @@ TEST(MotionGuard, OffKeepsTheFilterWhateverItMeasures) {
   EXPECT_TRUE(engine::raises_motion(r.after, r.before));
 }
 
+// Off and with no measure, the job is the lock alone (how clean --guard off, eval and the Python
+// module run a named method with --feet lock): bit for bit lock_feet_in_segments, on a clip
+// that the guard would have taken back to its input.
+TEST(MotionGuard, OffWithoutItsInputsIsTheLockAlone) {
+  const Clip clean = walk();
+  const Clip rough = with_noise(clean, 0.01, 6);
+  const std::vector<Segment> segments;
+  engine::ClipFeet feet = engine::detect_feet(clean), expected_feet = feet;
+  Clip expected = rough;
+  ASSERT_TRUE(engine::lock_feet_in_segments(expected_feet, expected, segments).ok());
+  ASSERT_TRUE(expected_feet.locked);
+  Clip output = rough;
+  MotionGuardJob g;
+  g.guard = false;
+  g.segments = &segments;
+  g.feet = &feet;
+  g.output = &output;
+  ASSERT_TRUE(g.run().ok());
+  EXPECT_EQ(g.kept, Kept::filtered_locked);
+  EXPECT_EQ(output.rotations, expected.rotations);
+  EXPECT_EQ(output.translations, expected.translations);
+  EXPECT_TRUE(feet.locked);
+  EXPECT_EQ(feet.contacts, expected_feet.contacts);
+  EXPECT_EQ(g.after.contact_steps, 0) << "measured with no measure to compare against";
+  EXPECT_EQ(g.after.jitter, 0.0);
+}
+
+TEST(MotionGuard, OnItNeedsTheInputAndTheMeasureOfTheClipAsRead) {
+  const Clip clean = walk();
+  const std::vector<Segment> segments;
+  const MotionMeasure before = engine::measure_motion(clean);
+  for (const bool with_input : {false, true}) {
+    Clip output = clean;
+    MotionGuardJob g;
+    g.input = with_input ? &clean : nullptr;
+    g.before = with_input ? nullptr : &before;
+    g.segments = &segments;
+    g.output = &output;
+    const Status s = g.run();
+    ASSERT_FALSE(s.ok());
+    EXPECT_NE(s.message().find("needs the input and the measure"), std::string::npos)
+        << s.message();
+    EXPECT_EQ(output.rotations, clean.rotations) << "a refused run changed its output";
+  }
+}
+
 TEST(MotionGuard, ClipsOfDifferentShapesAreRefused) {
   const Clip clean = walk();
   Clip shorter = clean;
