@@ -139,29 +139,28 @@ struct SegmentPopTest {
 };
 
 // Flipping joints' pops, found between the joint's flips (clip/flip_pieces.hpp): to the test over
-// the whole curve every flip is a pop, inside a piece the joint moves as captured joints do.
-// Sets their flags in `flags` ([F][J] of the segment `rotations`) and returns each joint's
-// pieces: a flipping joint's between its flips, the whole segment for a captured joint.
-std::vector<std::vector<Segment>> find_pops_between_flips(RotationView rotations,
-                                                          std::span<const std::uint8_t> flipping,
-                                                          const PopRepairParams& params,
-                                                          std::span<std::uint8_t> flags) {
+// the whole curve every flip is a pop, inside a piece the joint moves as captured joints do; where
+// the flips are one rotation (kernels/flip_chart.hpp) a piece runs across them, read with them
+// taken out. Sets their flags in `flags` ([F][J] of the segment `rotations`) and returns each
+// joint's pieces: a flipping joint's charted pieces, the whole segment for a captured joint.
+std::vector<ChartedPieces> find_pops_between_flips(RotationView rotations,
+                                                   std::span<const std::uint8_t> flipping,
+                                                   const PopRepairParams& params,
+                                                   std::span<std::uint8_t> flags) {
   const int J = rotations.joints;
-  std::vector<std::vector<Segment>> pieces(std::size_t(J), {{0, rotations.frames}});
+  std::vector<ChartedPieces> pieces(std::size_t(J), {{{0, rotations.frames}}, {}});
   std::vector<Quat> curve;
-  std::vector<std::uint8_t> piece_flags;
+  std::vector<std::uint8_t> flipped, piece_flags;
   for (int j = 0; j < J; ++j) {
     if (!flipping[std::size_t(j)]) continue;
-    pieces[std::size_t(j)] = flip_pieces(rotations, j);
-    for (const Segment& piece : pieces[std::size_t(j)]) {
+    ChartedPieces& charted = pieces[std::size_t(j)];
+    charted = charted_flip_pieces(rotations, j);
+    for (const Segment& piece : charted.pieces) {
       if (piece.frames() < kPopRepairMinFrames) continue;
-      const std::size_t n = std::size_t(piece.frames());
-      curve.resize(n);
-      for (std::size_t t = 0; t < n; ++t)
-        curve[t] = load_quat(rotations.at(piece.begin + int(t), j));
-      piece_flags.assign(n, 0);
+      load_piece(rotations, j, charted.chart, piece, curve, flipped);
+      piece_flags.assign(curve.size(), 0);
       if (find_pops(curve, params, piece_flags) == 0) continue;
-      for (std::size_t t = 0; t < n; ++t)
+      for (std::size_t t = 0; t < curve.size(); ++t)
         if (piece_flags[t])
           flags[(std::size_t(piece.begin) + t) * std::size_t(J) + std::size_t(j)] = 1;
     }
@@ -170,18 +169,19 @@ std::vector<std::vector<Segment>> find_pops_between_flips(RotationView rotations
 }
 
 // Repairs the flagged runs of one segment in place (repair_pops): a captured joint's over its
-// whole curve, a flipping joint's piece by piece between its flips: `pieces` as
-// find_pops_between_flips returned them. Joints are parallel tasks; each reads and writes only its
-// own joint's samples, and reads a curve before it writes any of it.
+// whole curve, a flipping joint's piece by piece, its chart's flips taken out and put back:
+// `pieces` as find_pops_between_flips returned them. Joints are parallel tasks; each reads and
+// writes only its own joint's samples, and reads a curve before it writes any of it.
 void repair_segment(RotationSpan rotations, std::span<const std::uint8_t> flags,
-                    const std::vector<std::vector<Segment>>& pieces) {
+                    const std::vector<ChartedPieces>& pieces) {
   const int J = rotations.joints;
   const RotationView view{rotations.data, rotations.frames, J};
   tbb::parallel_for(tbb::blocked_range<int>(0, J, 1), [&](const auto& range) {
     std::vector<Quat> curve, fixed;
-    std::vector<std::uint8_t> piece_flags;
+    std::vector<std::uint8_t> flipped, piece_flags;
     for (int j = range.begin(); j < range.end(); ++j) {
-      for (const Segment& piece : pieces[std::size_t(j)]) {
+      const ChartedPieces& charted = pieces[std::size_t(j)];
+      for (const Segment& piece : charted.pieces) {
         const std::size_t n = std::size_t(piece.frames());
         piece_flags.resize(n);
         bool any = false;
@@ -190,12 +190,15 @@ void repair_segment(RotationSpan rotations, std::span<const std::uint8_t> flags,
           any = any || piece_flags[t];
         }
         if (!any) continue;
-        curve.resize(n);
+        load_piece(view, j, charted.chart, piece, curve, flipped);
         fixed.resize(n);
-        for (std::size_t t = 0; t < n; ++t) curve[t] = load_quat(view.at(piece.begin + int(t), j));
         repair_pops(curve, piece_flags, fixed);
         for (std::size_t t = 0; t < n; ++t)
-          if (piece_flags[t]) store_quat(fixed[t], rotations.at(piece.begin + int(t), j));
+          if (piece_flags[t]) {
+            const int frame = piece.begin + int(t);
+            store_quat(put_back(charted.chart, fixed[t], flipped[t], load_quat(view.at(frame, j))),
+                       rotations.at(frame, j));
+          }
       }
     }
   });

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <vector>
 
 #include "core/quaternion.hpp"
 #include "engine/clip/methods.hpp"
@@ -23,6 +24,51 @@ std::vector<Segment> flip_pieces(RotationView rotations, int joint) {
   return pieces;
 }
 
+ChartedPieces charted_flip_pieces(RotationView rotations, int joint) {
+  ChartedPieces c;
+  std::vector<Quat> curve(std::size_t(std::max(rotations.frames, 0)));
+  for (int t = 0; t < rotations.frames; ++t)
+    curve[std::size_t(t)] = load_quat(rotations.at(t, joint));
+  c.chart = find_flip_chart(curve);
+  if (!c.chart.found) {
+    c.pieces = flip_pieces(rotations, joint);
+    return c;
+  }
+  if (rotations.frames <= 0) return c;
+  // As take_out_flips reads each piece: flipped after an odd number of the flips it takes out;
+  // a flip it does not take out starts a piece of its own.
+  int begin = 0;
+  bool odd = false;
+  for (std::size_t t = 0; t + 1 < curve.size(); ++t) {
+    if (geodesic(curve[t], curve[t + 1]) < kFlipStep) continue;
+    if (c.chart.takes_out(curve[t], curve[t + 1], odd)) {
+      odd = !odd;
+      continue;
+    }
+    c.pieces.push_back({begin, int(t) + 1});
+    begin = int(t) + 1;
+    odd = false;
+  }
+  c.pieces.push_back({begin, rotations.frames});
+  return c;
+}
+
+void load_piece(RotationView rotations, int joint, const FlipChart& chart, Segment piece,
+                std::vector<Quat>& curve, std::vector<std::uint8_t>& flipped) {
+  const std::size_t n = std::size_t(piece.frames());
+  curve.resize(n);
+  flipped.assign(n, 0);
+  for (std::size_t t = 0; t < n; ++t)
+    curve[t] = load_quat(rotations.at(piece.begin + int(t), joint));
+  if (chart.found) take_out_flips(chart, curve, flipped);
+}
+
+Quat put_back(const FlipChart& chart, Quat q, bool flipped, Quat original) {
+  if (!chart.found) return q;  // load_piece took the samples as they came
+  const Quat r = flipped ? chart.reflip(q) : q;
+  return dot(r, original) < 0 ? negate(r) : r;
+}
+
 std::optional<FilterSettings> flip_piece_settings(const FilterSettings& asked,
                                                   const FilterSettings& resolved, double sigma_hat,
                                                   double frame_time) {
@@ -34,27 +80,38 @@ std::optional<FilterSettings> flip_piece_settings(const FilterSettings& asked,
 Status filter_between_flips(const FilterSettings& settings, const MotionIO& io, int joint,
                             std::span<const std::uint8_t> distance_joints) {
   const int J = io.rotations.joints;
+  const std::size_t columns = std::size_t(J) * 4;
   const int first = io.frame_begin, stop = io.frame_stop();
-  std::vector<float> scratch;
-  for (const Segment& piece : flip_pieces(io.rotations, joint)) {
+  const ChartedPieces charted = charted_flip_pieces(io.rotations, joint);
+  std::vector<float> input, scratch;
+  std::vector<Quat> curve;
+  std::vector<std::uint8_t> flipped;
+  for (const Segment& piece : charted.pieces) {
     const int begin = std::max(piece.begin, first), end = std::min(piece.end, stop);
     if (begin >= end || piece.frames() < kFlipPieceMinFrames) continue;
-    const std::size_t row = std::size_t(piece.begin) * std::size_t(J);
-    scratch.assign(std::size_t(piece.frames()) * std::size_t(J) * 4, 0.0f);
+    const std::size_t frames = std::size_t(piece.frames());
+    // The piece's rows as a clip of its own, the joint's column with its flips taken out.
+    const float* rows = io.rotations.data + std::size_t(piece.begin) * columns;
+    input.assign(rows, rows + frames * columns);
+    load_piece(io.rotations, joint, charted.chart, piece, curve, flipped);
+    for (std::size_t t = 0; t < frames; ++t)
+      store_quat(curve[t], input.data() + t * columns + std::size_t(joint) * 4);
+    scratch.assign(frames * columns, 0.0f);
     MotionIO p;
     p.frame_time = io.frame_time;
-    p.rotations = {io.rotations.data + row * 4, piece.frames(), J};
+    p.rotations = {input.data(), piece.frames(), J};
     p.filtered_rotations = {scratch.data(), piece.frames(), J};
     p.joint_begin = joint;
     p.joint_end = joint + 1;
     p.frame_begin = begin - piece.begin;
     p.frame_end = end - piece.begin;
     if (Status s = run_method(settings, p, distance_joints); !s) return s;
-    for (int t = begin; t < end; ++t)
-      std::memcpy(
-          io.filtered_rotations.at(t, joint),
-          scratch.data() + (std::size_t(t - piece.begin) * std::size_t(J) + std::size_t(joint)) * 4,
-          4 * sizeof(float));
+    for (int t = begin; t < end; ++t) {
+      const std::size_t k = std::size_t(t - piece.begin);
+      const Quat out = load_quat(scratch.data() + k * columns + std::size_t(joint) * 4);
+      store_quat(put_back(charted.chart, out, flipped[k], load_quat(io.rotations.at(t, joint))),
+                 io.filtered_rotations.at(t, joint));
+    }
   }
   return {};
 }

@@ -6,6 +6,9 @@
 // clip of its own (flip_piece_settings: its noise estimate comes from the other joints), and the
 // flips stay where the capture has them: the joint comes out as smooth as its neighbours
 // where it is smooth, and no flip is moved, added or removed (README "Pops and garbage joints").
+// Where the flips are all one rotation (kernels/flip_chart.hpp), a piece runs across them, read
+// with them taken out and written with them put back, so that pieces of one or two frames
+// between flips have neighbours too.
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -14,6 +17,7 @@
 #include "core/status.hpp"
 #include "core/tensor.hpp"
 #include "engine/clip/filter_settings.hpp"
+#include "kernels/flip_chart.hpp"
 #include "kernels/motion_io.hpp"
 #include "kernels/motion_split.hpp"
 
@@ -22,6 +26,23 @@ namespace mocap::engine {
 // The frames [0, frames) of `rotations` between the joint's flips: cut after each step t -> t+1
 // whose geodesic angle is at least kFlipStep.
 std::vector<Segment> flip_pieces(RotationView rotations, int joint);
+
+// A flipping joint's pieces with its flips' chart (kernels/flip_chart.hpp): cut only at the flips
+// the chart does not take out, so that where the solver wrapped the same channel each time the
+// joint is one piece, read with its flips taken out (load_piece) and written with them put back
+// (put_back). Without a chart, flip_pieces.
+struct ChartedPieces {
+  std::vector<Segment> pieces;
+  FlipChart chart;
+};
+ChartedPieces charted_flip_pieces(RotationView rotations, int joint);
+
+// `joint`'s samples of `piece`, the chart's flips taken out (take_out_flips); `flipped` per sample.
+void load_piece(RotationView rotations, int joint, const FlipChart& chart, Segment piece,
+                std::vector<Quat>& curve, std::vector<std::uint8_t>& flipped);
+// A sample of such a curve with its flip put back, on the hemisphere of `original`, the sample
+// it replaces (without a chart, `q` itself).
+Quat put_back(const FlipChart& chart, Quat q, bool flipped, Quat original);
 
 // Pieces shorter than this stay as they came (a filter needs neighbours on both sides).
 inline constexpr int kFlipPieceMinFrames = 3;
@@ -37,9 +58,10 @@ std::optional<FilterSettings> flip_piece_settings(const FilterSettings& asked,
                                                   double frame_time);
 
 // Writes `joint`'s rotations of io's frames [frame_begin, frame_stop()) from `settings`' filter
-// run on each piece (flip_pieces of io.rotations) as a clip of its own; its translations and
-// every other joint are left as they are. io.rotations is one segment of a clip (the pieces of
-// a clip split at impossible steps lie inside its segments).
+// run on each piece (charted_flip_pieces of io.rotations, its chart's flips taken out and put
+// back) as a clip of its own; its translations and every other joint are left as they are.
+// io.rotations is one segment of a clip (the pieces of a clip split at impossible steps lie inside
+// its segments).
 Status filter_between_flips(const FilterSettings& settings, const MotionIO& io, int joint,
                             std::span<const std::uint8_t> distance_joints);
 

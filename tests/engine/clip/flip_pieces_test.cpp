@@ -187,23 +187,66 @@ TEST(FlipPieces, AutoFiltersThePiecesWithItsBofAndNothingBelowItsNoiseFloor) {
         << "piece " << p.begin << "-" << p.end;
 }
 
-TEST(FlipPieces, ShortPiecesStayAsTheyCame) {
+// A flip of another kind than the joint's others (here a half-turn about y where the others turn
+// about x, two frames later turned back) cuts a piece that the chart does not join: a piece of
+// two frames stays as it came.
+TEST(FlipPieces, ShortPiecesBetweenFlipsOfAnotherKindStayAsTheyCame) {
   test::Motion m = flipping_motion();
-  // A flip back two steps after the first: a piece of two frames.
-  const Quat flip = exp(Vec3{3.14159265358979 - 0.05, 0, 0});
-  for (int t = kFlips[0] + 3; t <= kFlips[1]; ++t)
-    store_quat(m.at(t, kFlipper) * flip, m.span().at(t, kFlipper));
+  const Quat other = exp(Vec3{0, 3.14159265358979 - 0.05, 0});
+  const int first = kFlips[0] + 20;
+  for (int t = first; t < first + 2; ++t)
+    store_quat(m.at(t, kFlipper) * other, m.span().at(t, kFlipper));
   make_hemisphere_continuous(m.span());
-  const std::vector<Segment> pieces = flip_pieces(m.view(), kFlipper);
-  ASSERT_GE(pieces.size(), 2u);
-  ASSERT_EQ(pieces[1].frames(), 2);
+  const ChartedPieces charted = charted_flip_pieces(m.view(), kFlipper);
+  ASSERT_TRUE(charted.chart.found);
+  ASSERT_EQ(charted.pieces.size(), 3u);  // the x flips taken out, cut at the two y flips
+  EXPECT_EQ(charted.pieces[1].begin, first);
+  ASSERT_EQ(charted.pieces[1].frames(), 2);
   test::Motion out = m;
   MotionIO io;
   io.rotations = m.view();
   io.filtered_rotations = out.span();
   ASSERT_TRUE(filter_between_flips(settings_of(Method::bof), io, kFlipper, {}).ok());
-  for (int t = pieces[1].begin; t < pieces[1].end; ++t)
+  for (int t = first; t < first + 2; ++t)
     EXPECT_EQ(std::memcmp(out.view().at(t, kFlipper), m.view().at(t, kFlipper), 16), 0) << t;
+}
+
+// Flips that are all one rotation (kernels/flip_chart.hpp) join their pieces: a piece of two
+// frames between two such flips, which piece by piece had no neighbours, is filtered with the
+// frames around it, and its flips stay where they were.
+TEST(FlipPieces, ShortPiecesBetweenFlipsOfOneRotationAreFilteredWithTheirNeighbours) {
+  const test::Motion clean = flipping_motion();
+  test::Motion with_short = clean;
+  const Quat flip = exp(Vec3{3.14159265358979 - 0.05, 0, 0});
+  const int first = kFlips[0] + 20;  // frames first, first + 1 flipped back: a piece of two
+  for (int t = first; t < first + 2; ++t)
+    store_quat(with_short.at(t, kFlipper) * inverse(flip), with_short.span().at(t, kFlipper));
+  make_hemisphere_continuous(with_short.span());
+  ASSERT_EQ(flip_pieces(with_short.view(), kFlipper).size(), 6u);
+  const ChartedPieces charted = charted_flip_pieces(with_short.view(), kFlipper);
+  ASSERT_TRUE(charted.chart.found);
+  EXPECT_FALSE(charted.chart.left);  // the motion turns the flip's axis on the left
+  EXPECT_LT(geodesic(charted.chart.flip, flip), 1e-3);
+  ASSERT_EQ(charted.pieces.size(), 1u);
+
+  test::Motion noisy = with_short;
+  add_noise(GaussianNoise{0.03, 11}, noisy.span());
+  make_hemisphere_continuous(noisy.span());
+  test::Motion out = noisy;
+  MotionIO io;
+  io.rotations = noisy.view();
+  io.filtered_rotations = out.span();
+  ASSERT_TRUE(filter_between_flips(settings_of(Method::bof), io, kFlipper, {}).ok());
+  double noisy_error = 0, out_error = 0;
+  for (int t = first; t < first + 2; ++t) {
+    noisy_error += test::rotation_error(noisy.view(), with_short.view(), t, kFlipper);
+    out_error += test::rotation_error(out.view(), with_short.view(), t, kFlipper);
+  }
+  EXPECT_LT(out_error, 0.75 * noisy_error);
+  const std::vector<Segment> before = flip_pieces(noisy.view(), kFlipper);
+  const std::vector<Segment> after = flip_pieces(out.view(), kFlipper);
+  ASSERT_EQ(after.size(), before.size());
+  for (std::size_t k = 0; k < after.size(); ++k) EXPECT_EQ(after[k].end, before[k].end) << k;
 }
 
 }  // namespace
