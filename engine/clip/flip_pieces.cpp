@@ -30,13 +30,10 @@ ChartedPieces charted_flip_pieces(RotationView rotations, int joint) {
   for (int t = 0; t < rotations.frames; ++t)
     curve[std::size_t(t)] = load_quat(rotations.at(t, joint));
   c.chart = find_flip_chart(curve);
-  if (!c.chart.found) {
-    c.pieces = flip_pieces(rotations, joint);
-    return c;
-  }
   if (rotations.frames <= 0) return c;
   // As take_out_flips reads each piece: flipped after an odd number of the flips it takes out;
-  // a flip it does not take out starts a piece of its own.
+  // a flip it does not take out (every flip, without a chart: flip_pieces) starts a piece of its
+  // own.
   int begin = 0;
   bool odd = false;
   for (std::size_t t = 0; t + 1 < curve.size(); ++t) {
@@ -90,16 +87,20 @@ Status filter_between_flips(const FilterSettings& settings, const MotionIO& io, 
     const int begin = std::max(piece.begin, first), end = std::min(piece.end, stop);
     if (begin >= end || piece.frames() < kFlipPieceMinFrames) continue;
     const std::size_t frames = std::size_t(piece.frames());
-    // The piece's rows as a clip of its own, the joint's column with its flips taken out.
+    // The piece's rows as a clip of its own; with a chart, a copy whose joint column has its
+    // flips taken out.
     const float* rows = io.rotations.data + std::size_t(piece.begin) * columns;
-    input.assign(rows, rows + frames * columns);
     load_piece(io.rotations, joint, charted.chart, piece, curve, flipped);
-    for (std::size_t t = 0; t < frames; ++t)
-      store_quat(curve[t], input.data() + t * columns + std::size_t(joint) * 4);
+    if (charted.chart.found) {
+      input.assign(rows, rows + frames * columns);
+      for (std::size_t t = 0; t < frames; ++t)
+        store_quat(curve[t], input.data() + t * columns + std::size_t(joint) * 4);
+      rows = input.data();
+    }
     scratch.assign(frames * columns, 0.0f);
     MotionIO p;
     p.frame_time = io.frame_time;
-    p.rotations = {input.data(), piece.frames(), J};
+    p.rotations = {rows, piece.frames(), J};
     p.filtered_rotations = {scratch.data(), piece.frames(), J};
     p.joint_begin = joint;
     p.joint_end = joint + 1;

@@ -54,6 +54,15 @@ FilterSettings settings_of(Method method) {
   return s;
 }
 
+// The flipping joint of `in` filtered between its flips into `out` (every other joint left as
+// `out` holds it).
+Status filter_flipper(const FilterSettings& settings, const test::Motion& in, test::Motion& out) {
+  MotionIO io;
+  io.rotations = in.view();
+  io.filtered_rotations = out.span();
+  return filter_between_flips(settings, io, kFlipper, {});
+}
+
 double piece_rms(const test::Motion& a, const test::Motion& b, int begin, int end) {
   double sum = 0;
   for (int t = begin; t < end; ++t)
@@ -92,10 +101,7 @@ TEST(FlipPieces, EachPieceIsFilteredAndTheFlipsStay) {
     for (int t = 0; t < kFrames; ++t)
       for (int j = 0; j < kJoints; ++j)
         if (j != kFlipper) std::fill_n(out.span().at(t, j), 4, sentinel);
-    MotionIO io;
-    io.rotations = noisy.view();
-    io.filtered_rotations = out.span();
-    ASSERT_TRUE(filter_between_flips(settings_of(method), io, kFlipper, {}).ok()) << name;
+    ASSERT_TRUE(filter_flipper(settings_of(method), noisy, out).ok()) << name;
 
     // Nothing but the flipping joint written.
     for (int t = 0; t < kFrames; ++t)
@@ -174,13 +180,9 @@ TEST(FlipPieces, AutoFiltersThePiecesWithItsBofAndNothingBelowItsNoiseFloor) {
   add_noise(GaussianNoise{0.03, 5}, noisy.span());
   make_hemisphere_continuous(noisy.span());
   test::Motion out = noisy;
-  MotionIO io;
-  io.rotations = noisy.view();
-  io.filtered_rotations = out.span();
   const FilterSettings resolved = choose_automatic(asked, 0.03, true, kFrameTime);
-  ASSERT_TRUE(filter_between_flips(*flip_piece_settings(asked, resolved, 0.03, kFrameTime), io,
-                                   kFlipper, {})
-                  .ok());
+  ASSERT_TRUE(
+      filter_flipper(*flip_piece_settings(asked, resolved, 0.03, kFrameTime), noisy, out).ok());
   for (const Segment& p : flip_pieces(noisy.view(), kFlipper))
     EXPECT_LT(piece_rms(out, clean_motion, p.begin, p.end),
               0.75 * piece_rms(noisy, clean_motion, p.begin, p.end))
@@ -203,10 +205,7 @@ TEST(FlipPieces, ShortPiecesBetweenFlipsOfAnotherKindStayAsTheyCame) {
   EXPECT_EQ(charted.pieces[1].begin, first);
   ASSERT_EQ(charted.pieces[1].frames(), 2);
   test::Motion out = m;
-  MotionIO io;
-  io.rotations = m.view();
-  io.filtered_rotations = out.span();
-  ASSERT_TRUE(filter_between_flips(settings_of(Method::bof), io, kFlipper, {}).ok());
+  ASSERT_TRUE(filter_flipper(settings_of(Method::bof), m, out).ok());
   for (int t = first; t < first + 2; ++t)
     EXPECT_EQ(std::memcmp(out.view().at(t, kFlipper), m.view().at(t, kFlipper), 16), 0) << t;
 }
@@ -233,10 +232,7 @@ TEST(FlipPieces, ShortPiecesBetweenFlipsOfOneRotationAreFilteredWithTheirNeighbo
   add_noise(GaussianNoise{0.03, 11}, noisy.span());
   make_hemisphere_continuous(noisy.span());
   test::Motion out = noisy;
-  MotionIO io;
-  io.rotations = noisy.view();
-  io.filtered_rotations = out.span();
-  ASSERT_TRUE(filter_between_flips(settings_of(Method::bof), io, kFlipper, {}).ok());
+  ASSERT_TRUE(filter_flipper(settings_of(Method::bof), noisy, out).ok());
   double noisy_error = 0, out_error = 0;
   for (int t = first; t < first + 2; ++t) {
     noisy_error += test::rotation_error(noisy.view(), with_short.view(), t, kFlipper);
