@@ -372,6 +372,8 @@ nlohmann::json report_json(const EvalResults& r, const EvalConfig& config) {
            {"pops_caught", n.pops_caught},
            {"pops_left", n.pops_left},
            {"pops_left_samples", left},
+           {"popped_on_lone_frames", n.popped_lone},
+           {"pops_left_on_lone_frames", n.pops_left_lone},
            {"false_repairs", n.false_repairs},
            {"garbage_joints", garbage}});
     }

@@ -240,11 +240,17 @@ EvalResults run_evaluation(std::vector<EvalClip> clips, const EvalConfig& config
           return geodesic(load_quat(rotations.data() + sample * 4),
                           load_quat(clip.clean.rotations.data() + sample * 4)) > kPoppedAngle;
         };
+        std::vector<std::uint8_t> lone(std::size_t(clip.clean.frames), 0);
+        for (const Segment& s : clip.segments)
+          if (s.frames() == 1) lone[std::size_t(s.begin)] = 1;
         for (std::size_t sample = 0; sample < noisy.rotations.size() / 4; ++sample)
           if (moved(noisy.rotations, sample)) {
+            const bool on_lone_frame = lone[sample / J] != 0;
             ++noisy.popped;
+            noisy.popped_lone += on_lone_frame;
             if (moved(noisy.repaired, sample)) {
               ++noisy.pops_left;
+              noisy.pops_left_lone += on_lone_frame;
               noisy.left_samples.push_back({int(sample / J), int(sample % J)});
             }
           }

@@ -62,6 +62,10 @@ struct NoisyClip {
   // are 0.3-1 rad), how many of them the pop stage flagged, how many flags fell on other samples
   // (false repairs), and how many popped samples stay that far from the clean after the stage.
   std::size_t popped = 0, pops_caught = 0, false_repairs = 0, pops_left = 0;
+  // Of those, the popped and left samples on a frame that is a segment of its own in the clean
+  // clip (CMU's synthetic T-pose frame 0): no neighbour in time to tell a pop there from the pose,
+  // so the pops removed are reported with and without them.
+  std::size_t popped_lone = 0, pops_left_lone = 0;
   std::vector<std::pair<int, int>> left_samples;  // (frame, joint) of the pops left
   // With config.lock_feet: the legs and contacts found on the noisy clip (feet) and on the
   // conditioned one (repaired_feet), as `clean` finds them on the clip its filter sees.
