@@ -40,6 +40,8 @@ std::vector<ImpossibleStep> impossible_steps(int frames, int joints, const Angle
                                              std::span<const std::uint8_t> skip,
                                              std::span<const double> median_steps = {}) {
   std::vector<ImpossibleStep> steps;
+  // A skip that is not one entry per joint marks none (as a misfit median_steps is measured).
+  if (skip.size() != std::size_t(std::max(joints, 0))) skip = {};
   const auto counted_joint = [&](int j) { return skip.empty() || !skip[std::size_t(j)]; };
   std::vector<double> threshold(std::size_t(std::max(joints, 0)),
                                 params.step_threshold(frame_time));

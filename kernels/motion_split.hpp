@@ -91,8 +91,8 @@ struct Segment {
 std::vector<Segment> split_segments(int frames, const std::vector<ImpossibleStep>& steps);
 
 // The impossible steps of `rotations`, in frame order, over the joints that `skip` (empty, or
-// one entry per joint) does not mark: flipping joints make such steps all the time without being
-// motion. Requires valid params and frame_time > 0.
+// one entry per joint; any other size marks none) does not mark: flipping joints make such steps
+// all the time without being motion. Requires valid params and frame_time > 0.
 std::vector<ImpossibleStep> find_impossible_steps(RotationView rotations, double frame_time,
                                                   const MotionSplitParams& params,
                                                   std::span<const std::uint8_t> skip = {});

@@ -16,6 +16,10 @@ NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_
   NoiseEstimate result;
   if (rotations.empty() || frames < 3) return result;
 
+  // Spans that are not one entry per joint are left out (header): never read past their end.
+  const std::size_t J = std::size_t(rotations.joints);
+  if (skip_joints.size() != J) skip_joints = {};
+  if (median_steps.size() != J) median_steps = {};
   std::vector<Vec3> steps(std::size_t(frames) - 1);
   std::vector<double> work, components, joint_sigmas;
   for (int j = 0; j < rotations.joints; ++j) {

@@ -31,7 +31,8 @@ struct NoiseEstimate {
 // would count its flips as noise.
 // `median_steps` (empty, or one per joint): each joint's median frame-to-frame geodesic step
 // when the caller has it already (JointQuality::median_step of the same rotations), which is
-// exactly what the moving test would compute.
+// exactly what the moving test would compute. Either span of another size is ignored (no joint
+// left out; the steps measured here).
 NoiseEstimate estimate_noise(RotationView rotations, std::span<const std::uint8_t> skip_joints = {},
                              std::span<const double> median_steps = {});
 

@@ -237,6 +237,9 @@ TEST(MotionSplit, OneFlippingJointIsNotAWholeBodyJump) {
   skip[5] = 1;
   EXPECT_TRUE(find_impossible_steps(v, 1.0 / 30, {}, skip).empty());
   EXPECT_EQ(motion_segments(v, 1.0 / 30, skip).size(), 1u);
+  // A skip that is not one entry per joint marks none (and is never read past its end).
+  const std::vector<std::uint8_t> short_skip(skip.begin(), skip.begin() + 6);
+  EXPECT_EQ(find_impossible_steps(v, 1.0 / 30, {}, short_skip).size(), 1u);
 }
 
 // With fewer than kPoseStepMinJoints joints there is no body to jump: 4 of 5 joints turning

@@ -186,6 +186,14 @@ TEST(NoiseEstimate, IsTheMedianOverJoints) {
     for (int t = 0; t < 1000; ++t) std::copy_n(one.view().at(t, 0), 4, noisy.span().at(t, j));
   }
   EXPECT_NEAR(estimate_noise(noisy.view()).sigma, 0.03, kEstimateTolerance * 0.03);
+  // Leaving out the two least noisy joints moves the median to j = 3.
+  const std::vector<std::uint8_t> skip{1, 1, 0, 0, 0};
+  EXPECT_NEAR(estimate_noise(noisy.view(), skip).sigma, 0.04, kEstimateTolerance * 0.04);
+  // Spans that are not one per joint are ignored, never read past their end.
+  const std::vector<std::uint8_t> short_skip{1, 1};
+  const std::vector<double> short_steps{1.0};
+  EXPECT_EQ(estimate_noise(noisy.view(), short_skip, short_steps).sigma,
+            estimate_noise(noisy.view()).sigma);
 }
 
 TEST(NoiseEstimate, IgnoresJointsThatDoNotMove) {
