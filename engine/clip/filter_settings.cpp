@@ -151,7 +151,8 @@ FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat
     l.boundary = settings.param<BilateralParams>().boundary;
     l.order = kAutoButterworthOrder;
     l.cutoff = automatic_cutoff(sigma_hat, frame_time);
-  } else if (sigma_hat < kAutoCleanBelow) {
+  } else if (sigma_hat < kAutoCleanBelow &&
+             !(frame_time > 0 && 1.0 / frame_time < kAutoNlpmMinFps)) {
     s.method = Method::nlpm;
     const NlpmParams asked = settings.param<NlpmParams>();
     NlpmParams& n = s.edit<NlpmParams>();

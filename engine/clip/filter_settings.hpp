@@ -224,8 +224,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 
 // What --method auto picks for a clip of estimated noise sigma_hat (rad): the method and its
 // parameters (README "Automatic parameters"):
-//   sigma_hat < kAutoCleanBelow:  nlpm, h = max(kNlpmAutoFactor sigma_hat, kAutoNlpmMinH),
-//                                 range = max(kNlpmAutoRangeFactor sigma_hat, kAutoNlpmMinRange)
+//   sigma_hat < kAutoCleanBelow   nlpm, h = max(kNlpmAutoFactor sigma_hat, kAutoNlpmMinH),
+//   (kAutoNlpmMinFps and above):  range = max(kNlpmAutoRangeFactor sigma_hat, kAutoNlpmMinRange)
 //   otherwise:                    bof, automatic_smoothing (iterations and widths from sigma_hat
 //                                 and the frame rate)
 //   noisy positions:              butterworth of kAutoButterworthOrder, cut-off automatic_cutoff
@@ -238,7 +238,12 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 // 120 fps. Below kAutoCleanBelow (a capture with no noise to speak of: the clean CMU clips measure
 // 0.0011-0.0023 rad at 120 fps) the floored nlpm stays: bof at one iteration left 1.7-1.96x the
 // clean capture's joint-position jitter there against nlpm's 1.26x, whatever its sigma_g floor.
+// Below kAutoNlpmMinFps the estimate cannot tell a capture with no noise: the clean CMU clips
+// measure 0.0032-0.0097 rad at 30 fps (the motion between samples reads as noise), so the branch
+// split them at random, and bof kept them closer to the capture than nlpm did at every measure
+// but a little jitter (README "Automatic parameters", "Below 60 fps").
 inline constexpr double kAutoCleanBelow = 0.004;
+inline constexpr double kAutoNlpmMinFps = 60;
 // Noisy positions: the position channels' noise (estimate_translation_noise) above
 // kNoisyPositions of the body's height. Such a capture is a noisy solve, and what its viewer sees
 // is joint positions, their error and their jitter, so auto chooses there on positions: the

@@ -421,6 +421,14 @@ TEST(Conditioning, AutoPicksNlpmWithItsRangeTermAtLowNoiseAndBofAtHighNoise) {
   const FilterSettings low = engine::choose_automatic(s, 0.002);
   EXPECT_EQ(low.method, Method::nlpm);
   EXPECT_LT(low.param<NlpmParams>().range_sigma, 0);  // automatic: resolved from sigma_hat
+  // At 60 fps and above only: below, a clean capture's motion reads as noise of that size, and
+  // the same estimate gets bof's one pass.
+  EXPECT_EQ(engine::choose_automatic(s, 0.002, false, 1.0 / 120).method, Method::nlpm);
+  EXPECT_EQ(engine::choose_automatic(s, 0.002, false, 1.0 / engine::kAutoNlpmMinFps).method,
+            Method::nlpm);
+  const FilterSettings low_rate = engine::choose_automatic(s, 0.002, false, 1.0 / 30);
+  EXPECT_EQ(low_rate.method, Method::bof);
+  EXPECT_EQ(low_rate.param<BilateralParams>().iterations, 1);
   // Measurable noise: bof, one pass at light noise, more at heavy noise.
   const FilterSettings light = engine::choose_automatic(s, 0.01);
   EXPECT_EQ(light.method, Method::bof);
