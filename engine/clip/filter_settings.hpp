@@ -240,8 +240,9 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 // clean capture's joint-position jitter there against nlpm's 1.26x, whatever its sigma_g floor.
 // Below kAutoNlpmMinFps the estimate cannot tell a capture with no noise: the clean CMU clips
 // measure 0.0032-0.0097 rad at 30 fps (the motion between samples reads as noise), so the branch
-// split them at random, and bof kept them closer to the capture than nlpm did at every measure
-// but a little jitter (README "Automatic parameters", "Below 60 fps").
+// split them at random; bof kept them closer to the capture than nlpm did in rotations and joint
+// positions, at a little more jitter and, without the lock, more skating on pops (README
+// "Automatic parameters", "Below 60 fps").
 inline constexpr double kAutoCleanBelow = 0.004;
 inline constexpr double kAutoNlpmMinFps = 60;
 // Noisy positions: the position channels' noise (estimate_translation_noise) above
