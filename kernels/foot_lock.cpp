@@ -283,6 +283,17 @@ int top_ancestor(std::span<const int> parents, int joint) {
   return joint;
 }
 
+// The target's lift (header, "Lift"): the height v, within [-lift, lift], that puts the target
+// `to` (relative to the hip) as far from the hip as the filtered ankle (`ankle_distance2`, the
+// squared distance), on the ankle's side of the hip; 0 where no height does (the horizontal
+// distance is longer). The fast path computes the same in vector lanes (LegGeometryPlanes).
+double target_lift(Vec3 to, double ankle_distance2, double lift) {
+  const double horizontal2 = to.x * to.x + to.z * to.z;
+  if (!(ankle_distance2 > horizontal2)) return 0.0;
+  const double height = std::sqrt(ankle_distance2 - horizontal2);
+  return std::clamp((to.y >= 0 ? height : -height) - to.y, -lift, lift);
+}
+
 // The roots' drops (header "Reach"), shared by both paths, each with its own geometry.
 // The drop that lets a hip `height` above its target and `horizontal` from it reach it with
 // reach r: a_y' = T_y + sqrt(r^2 - h^2), all of the height when h >= r; never negative.
@@ -334,10 +345,12 @@ void half_gaussian(double sigma, int radius, std::vector<double>& weights) {
 }
 
 // The envelope's Gaussian weights w[|k|], k in [-w, w], sigma = w / 2 (header, "Reach"; empty:
-// none), their total over all 2w + 1 frames, and the allowance m.
+// none), their total over all 2w + 1 frames, the allowance m and the targets' lift (header,
+// "Lift").
 void drop_weights(const FootLockJob& job, FootLockScratch& s, const FootLockStats& stats) {
   const int w = int(std::lround(job.params.drop_time / job.frame_time));
   s.drop_allowance = stats.anchor_noise * job.body_height;  // 0 without input_anchors
+  s.lift = job.params.lift * s.drop_allowance;
   s.drop_weights.clear();
   s.drop_total = 0;
   if (w <= 0) return;
@@ -559,7 +572,7 @@ void lock_fast(const FootLockJob& job, FootLockScratch& s, int blend, FootLockSt
       ox[k] = o.x;
       oz[k] = o.z;
     }
-    simd::leg_geometry(geometry(l), job.params.max_reach, m, stride);
+    simd::leg_geometry(geometry(l), job.params.max_reach, with_offsets ? s.lift : 0.0, m, stride);
   };
 
   // Pass A: the anchors (ankle, toe) and the knee's interior angle theta_f per leg and touched
@@ -902,6 +915,8 @@ Status FootLockParams::validate() const {
     return Status::error("foot lock: pin_width must be finite and >= 0");
   if (!(min_pin_sigma >= 0) || !(max_pin_sigma >= min_pin_sigma) || !std::isfinite(max_pin_sigma))
     return Status::error("foot lock: need 0 <= min_pin_sigma <= max_pin_sigma, finite");
+  if (!(lift >= 0) || !std::isfinite(lift))
+    return Status::error("foot lock: lift must be finite and >= 0");
   return {};
 }
 
@@ -1157,8 +1172,10 @@ Status FootLockJob::run() const {
     for (std::size_t l = 0; l < leg_count; ++l) {
       const LegFrame& f = leg_frames[l][std::size_t(t)];
       // The horizontal offset only (header: the height would move the knee).
-      target[l][std::size_t(t)] =
-          f.ankle + Vec3{offset[l][std::size_t(t)].x, 0, offset[l][std::size_t(t)].z};
+      Vec3& goal = target[l][std::size_t(t)];
+      goal = f.ankle + Vec3{offset[l][std::size_t(t)].x, 0, offset[l][std::size_t(t)].z};
+      if (work.lift > 0)
+        goal.y += target_lift(goal - f.hip, dot(f.ankle - f.hip, f.ankle - f.hip), work.lift);
       reach[l][std::size_t(t)] = reach_of(f);
       if (!active[l][std::size_t(t)]) continue;
       const Vec3 to_target = target[l][std::size_t(t)] - f.hip;

@@ -26,6 +26,15 @@
 //   change the leg's length, which near a straight knee turns the knee fast (the knee angle per
 //   unit of length grows as 1 / sin of the knee angle). Measured on the shared clips: pinning
 //   all three axes made the peak knee speed up to 3.3x the input's, horizontal only 1.5x.
+//   Lift. Even the horizontal offset changes the hip-target distance where the leg leans, and the
+//   knee then takes up the change, amplified near straight: the knee carried most of what the
+//   lock cost the rotations. So the target's height may move by v within [-lift m, lift m] (m
+//   the input anchors' noise, "Reach"; lift = params.lift, 0 without input_anchors): v puts the
+//   target as far from the hip as the filtered ankle, on the ankle's side of the hip,
+//   v = +-sqrt(|c - a|^2 - h^2) - (T - a)_y with h the target's horizontal distance from the
+//   hip (v = 0 where h >= |c - a|), clamped. The hip alone then swings the ankle onto the pin
+//   wherever the needed height lies within the capture's own noise; the ankle's height departs
+//   from the filtered one by at most lift m.
 //   IK (Holden's analytic two-joint IK). Hip a, knee b, ankle c, target T, thigh l1 = |b - a|,
 //   shin l2 = |c - b|, d = |T - a| clamped to [|l1 - l2|, L], L = max(max_reach (l1 + l2),
 //   |c - a|) capped at l1 + l2. The knee turns about the filtered bend-plane normal
@@ -109,6 +118,9 @@ struct FootLockParams {
   double pin_width = 700;
   double min_pin_sigma = 0.02;
   double max_pin_sigma = 1.0;
+  // With input_anchors, the ankle's target may rise or sink by up to lift x the anchors' noise
+  // where that keeps the leg's length (header, "Lift"); 0: the filtered height, exactly.
+  double lift = 1.0;
 
   Status validate() const;
 };
@@ -166,6 +178,7 @@ struct FootLockScratch {
   std::vector<double> drop_weights, envelope;  // the drops' envelope (header, "Reach")
   double drop_total = 0;      // the envelope's weights summed over all 2w + 1 frames
   double drop_allowance = 0;  // m, file units (header, "Reach")
+  double lift = 0;            // the targets' largest lift, file units (header, "Lift")
   struct Segment {            // a run of frames with the same anchor (1: ankle, 2: toe)
     int begin, end, anchor;
   };

@@ -113,7 +113,8 @@ void AcosPlanes(const double* in, double* out, std::size_t n) {
     hn::StoreU(hn::Acos(d, hn::Min(hn::Max(hn::LoadU(d, in + i), minus_one), one)), d, out + i);
 }
 
-void LegGeometryPlanes(const LegGeometry& g, double max_reach, std::size_t n, std::size_t stride) {
+void LegGeometryPlanes(const LegGeometry& g, double max_reach, double lift, std::size_t n,
+                       std::size_t stride) {
   const hn::ScalableTag<double> d;
   using V = hn::Vec<decltype(d)>;
   const std::size_t N = hn::Lanes(d);
@@ -145,8 +146,14 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, std::size_t n, st
     StoreVec3(d, Vec3V<V>{hn::Mul(n3.x, inv), hn::Mul(n3.y, inv), hn::Mul(n3.z, inv)}, g.normal,
               stride, i);
     hn::StoreU(hn::IfThenElseZero(bent, one), d, g.bent + i);
-    const Vec3V<V> to{hn::Add(w.x, hn::LoadU(d, g.ox + i)), w.y,
-                      hn::Add(w.z, hn::LoadU(d, g.oz + i))};
+    Vec3V<V> to{hn::Add(w.x, hn::LoadU(d, g.ox + i)), w.y, hn::Add(w.z, hn::LoadU(d, g.oz + i))};
+    if (lift > 0) {  // target_lift in kernels/foot_lock.cpp
+      const V ww = Dot(w, w), horizontal2 = hn::MulAdd(to.x, to.x, hn::Mul(to.z, to.z));
+      const V height = hn::Sqrt(hn::Max(hn::Sub(ww, horizontal2), zero));
+      const V level = hn::IfThenElse(hn::Ge(w.y, zero), height, hn::Neg(height));
+      const V rise = hn::IfThenElseZero(hn::Gt(ww, horizontal2), hn::Sub(level, w.y));
+      to.y = hn::Add(w.y, hn::Min(hn::Max(rise, hn::Set(d, -lift)), hn::Set(d, lift)));
+    }
     StoreVec3(d, to, g.to_target, stride, i);
     hn::StoreU(Dot(to, to), d, g.distance + i);
   }
@@ -292,8 +299,9 @@ HWY_EXPORT(LegIk);
 HWY_EXPORT(LegGeometryPlanes);
 HWY_EXPORT(LegKneeCosine);
 
-void leg_geometry(const LegGeometry& g, double max_reach, std::size_t n, std::size_t stride) {
-  HWY_DYNAMIC_DISPATCH(LegGeometryPlanes)(g, max_reach, n, stride);
+void leg_geometry(const LegGeometry& g, double max_reach, double lift, std::size_t n,
+                  std::size_t stride) {
+  HWY_DYNAMIC_DISPATCH(LegGeometryPlanes)(g, max_reach, lift, n, stride);
 }
 
 void leg_knee_cosine(double* to_target, const double* drop, const double* len, double* cos1,

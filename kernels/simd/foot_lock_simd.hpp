@@ -29,12 +29,14 @@ void chain_step(const double* parent_rot, const double* parent_pos, const double
 // ankle positions and the offset's horizontal part (ox, oz): u = knee - hip, v = ankle - knee,
 // len = (l1, l2, reach L), cos_f and theta_f the knee's interior angle, normal = (u x (ankle -
 // hip)) / |.| and bent = 1 where that normal is defined (else 0, normal 0), to_target = ankle +
-// (ox, 0, oz) - hip and its squared length (distance).
+// (ox, v, oz) - hip and its squared length (distance), v the target's lift (header "Lift"; 0
+// when lift is 0).
 struct LegGeometry {
   const double *hip, *knee, *ankle, *ox, *oz;  // inputs (3, 3, 3, 1, 1 planes)
   double *u, *v, *len, *cos_f, *theta_f, *normal, *bent, *to_target, *distance;
 };
-void leg_geometry(const LegGeometry& g, double max_reach, std::size_t n, std::size_t stride);
+void leg_geometry(const LegGeometry& g, double max_reach, double lift, std::size_t n,
+                  std::size_t stride);
 
 // The IK's wanted knee cosine (header "IK") once the hip is lowered by drop: to_target's y is
 // raised by drop (in place), d = |to_target| clamped to [|l1 - l2| (1 + tiny), reach], cos1 =

@@ -433,6 +433,60 @@ TEST(FootLock, TheInputsNoiseIsMeasuredAndSmoothedOutOfThePins) {
   EXPECT_LT(off, 1.5 * noise);
 }
 
+// The lift (header, "Lift"): with noisy input anchors a few mm off the filtered foot, the
+// horizontal-only target bends the knee of the leaning leg to reach them; lifted within the
+// anchors' noise m, the hip alone reaches them: the knee's local rotation moves less than half as
+// much, the ankle lands on the same horizontal point, and its height stays within m of the filtered
+// one's.
+TEST(FootLock, TheLiftSwingsTheHipInsteadOfBendingTheKnee) {
+  for (const double frame_time : {1.0 / 30, 1.0 / 120}) {
+    const int frames = int(std::lround(2.0 / frame_time));
+    const Walk input(frames, frame_time);
+    const std::vector<float> before = input.positions();
+    const ContactInterval contact{int(std::lround(0.8 / frame_time)),
+                                  int(std::lround(1.2 / frame_time))};
+    Draws gaussian{2024};
+    const std::vector<float> anchors = input_anchors(frames, [&](int leg, int which, int t) {
+      const int j = leg == 0 ? (which == 0 ? Walk::kLeftAnkle : Walk::kLeftToe)
+                             : (which == 0 ? Walk::kRightAnkle : Walk::kRightToe);
+      // The capture's foot 5 mm ahead of the filtered one, under 4 mm of noise.
+      return point(before, t, j) + Vec3{0, 0, 0.005} +
+             0.004 * Vec3{gaussian(), gaussian(), gaussian()};
+    });
+    FootLockParams flat, lifted;
+    flat.max_knee_speed = lifted.max_knee_speed = -1;  // the IK's geometry alone
+    flat.lift = 0;
+    Walk a = input, b = input;
+    lock(a, {{contact}, {}}, flat, anchors);
+    const FootLockStats stats = lock(b, {{contact}, {}}, lifted, anchors);
+    const double m = stats.anchor_noise;  // body height 1 unit
+    ASSERT_GT(m, 0.002);
+    EXPECT_EQ(stats.lowered_frames, 0);
+    const std::vector<float> pa = a.positions(), pb = b.positions();
+    auto knee_turn = [&](const Walk& w, int t) {
+      const float* q = &w.rotations[(std::size_t(t) * Walk::kJoints + Walk::kLeftKnee) * 4];
+      const float* r = &input.rotations[(std::size_t(t) * Walk::kJoints + Walk::kLeftKnee) * 4];
+      return 2 * std::acos(std::min(1.0, std::abs(dot(load_quat(q), load_quat(r)))));
+    };
+    double turn_flat = 0, turn_lifted = 0, highest = 0;
+    for (int t = 0; t < frames; ++t) {
+      turn_flat += knee_turn(a, t);
+      turn_lifted += knee_turn(b, t);
+      const Vec3 ankle = point(pb, t, Walk::kLeftAnkle);
+      highest = std::max(highest, std::abs(ankle.y - point(before, t, Walk::kLeftAnkle).y));
+      EXPECT_LT(horizontal(ankle - point(pa, t, Walk::kLeftAnkle)), 1e-5) << "frame " << t;
+    }
+    std::printf(
+        "%.0f fps, m %.5f: the knee's turn summed over the clip %.4f rad without the lift, %.4f "
+        "with it; the ankle's largest change of height %.5f\n",
+        1 / frame_time, m, turn_flat, turn_lifted, highest);
+    EXPECT_GT(turn_flat, 0.01) << "the knee did not bend: the test would be vacuous";
+    EXPECT_LT(turn_lifted, 0.5 * turn_flat);  // measured 0.36x at 30 fps, 0.10x at 120
+    EXPECT_LE(highest, m + 1e-5);
+    EXPECT_GT(highest, 0.1 * m) << "nothing was lifted: the test would be vacuous";
+  }
+}
+
 // The fast path against the reference with pins that follow noisy input anchors, at 120 and 30
 // fps, toe contacts included.
 TEST(FootLock, TheFastPathMatchesTheReferenceWithInputAnchors) {
@@ -804,6 +858,9 @@ TEST(FootLock, ValidateExplainsWhatIsWrong) {
   EXPECT_TRUE(job.validate().ok());
   job.params.min_pin_sigma = 2;
   EXPECT_NE(job.validate().message().find("min_pin_sigma"), std::string::npos);
+  job.params = {};
+  job.params.lift = -0.5;
+  EXPECT_NE(job.validate().message().find("lift must be finite and >= 0"), std::string::npos);
 }
 
 }  // namespace
