@@ -1171,7 +1171,8 @@ Status FootLockJob::run() const {
     drops.clear();
     for (std::size_t l = 0; l < leg_count; ++l) {
       const LegFrame& f = leg_frames[l][std::size_t(t)];
-      // The horizontal offset only (header: the height would move the knee).
+      // The horizontal offset only (header: the height would move the knee), lifted within m
+      // where that keeps the leg's length (header, "Lift").
       Vec3& goal = target[l][std::size_t(t)];
       goal = f.ankle + Vec3{offset[l][std::size_t(t)].x, 0, offset[l][std::size_t(t)].z};
       if (work.lift > 0)

@@ -119,16 +119,17 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, double lift, std:
   using V = hn::Vec<decltype(d)>;
   const std::size_t N = hn::Lanes(d);
   const V zero = hn::Zero(d), one = hn::Set(d, 1.0), minus_one = hn::Set(d, -1.0),
-          reach_fraction = hn::Set(d, max_reach), tiny = hn::Set(d, 1e-9);
+          reach_fraction = hn::Set(d, max_reach), tiny = hn::Set(d, 1e-9),
+          lowest = hn::Set(d, -lift), highest = hn::Set(d, lift);
   for (std::size_t i = 0; i < n; i += N) {
     const Vec3V<V> hip = LoadVec3(d, g.hip, stride, i), knee = LoadVec3(d, g.knee, stride, i),
                    ankle = LoadVec3(d, g.ankle, stride, i);
     const Vec3V<V> u{hn::Sub(knee.x, hip.x), hn::Sub(knee.y, hip.y), hn::Sub(knee.z, hip.z)};
     const Vec3V<V> v{hn::Sub(ankle.x, knee.x), hn::Sub(ankle.y, knee.y), hn::Sub(ankle.z, knee.z)};
     const Vec3V<V> w{hn::Sub(ankle.x, hip.x), hn::Sub(ankle.y, hip.y), hn::Sub(ankle.z, hip.z)};
-    const V uu = Dot(u, u), vv = Dot(v, v);
+    const V uu = Dot(u, u), vv = Dot(v, v), ww = Dot(w, w);
     const V l1 = hn::Sqrt(uu), l2 = hn::Sqrt(vv), sum = hn::Add(l1, l2);
-    const V reach = hn::Min(sum, hn::Max(hn::Mul(reach_fraction, sum), hn::Sqrt(Dot(w, w))));
+    const V reach = hn::Min(sum, hn::Max(hn::Mul(reach_fraction, sum), hn::Sqrt(ww)));
     const auto lengths = hn::And(hn::Gt(l1, zero), hn::Gt(l2, zero));
     const V c = hn::Min(hn::Max(hn::Div(hn::Neg(Dot(u, v)), hn::Mul(l1, l2)), minus_one), one);
     const V cos_f = hn::IfThenElse(lengths, c, one);
@@ -148,11 +149,11 @@ void LegGeometryPlanes(const LegGeometry& g, double max_reach, double lift, std:
     hn::StoreU(hn::IfThenElseZero(bent, one), d, g.bent + i);
     Vec3V<V> to{hn::Add(w.x, hn::LoadU(d, g.ox + i)), w.y, hn::Add(w.z, hn::LoadU(d, g.oz + i))};
     if (lift > 0) {  // target_lift in kernels/foot_lock.cpp
-      const V ww = Dot(w, w), horizontal2 = hn::MulAdd(to.x, to.x, hn::Mul(to.z, to.z));
+      const V horizontal2 = hn::MulAdd(to.x, to.x, hn::Mul(to.z, to.z));
       const V height = hn::Sqrt(hn::Max(hn::Sub(ww, horizontal2), zero));
       const V level = hn::IfThenElse(hn::Ge(w.y, zero), height, hn::Neg(height));
       const V rise = hn::IfThenElseZero(hn::Gt(ww, horizontal2), hn::Sub(level, w.y));
-      to.y = hn::Add(w.y, hn::Min(hn::Max(rise, hn::Set(d, -lift)), hn::Set(d, lift)));
+      to.y = hn::Add(w.y, hn::Min(hn::Max(rise, lowest), highest));
     }
     StoreVec3(d, to, g.to_target, stride, i);
     hn::StoreU(Dot(to, to), d, g.distance + i);
