@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <utility>
 
@@ -113,12 +114,22 @@ Status MotionGuardJob::run() {
   if (feet)
     if (Status s = lock_feet_in_segments(*feet, *output, *segments, lock_scratch); !s) return s;
   if (before) after = measure_motion(*output, before, *segments);
-  if (!guard || !raises_motion(after, *before)) return {};
+  if (!guard) return {};
+  // The bar a filtered candidate must clear: the clip as read, or the input when the pop stage
+  // repaired samples and that raised nothing. Against the clip as read alone, a pop's jitter
+  // hides whatever the filter adds to the motion around it.
+  std::optional<MotionMeasure> repaired;
+  if (raw && (input->rotations != raw->rotations || input->translations != raw->translations)) {
+    repaired = measure_motion(*input, before, *segments);
+    if (raises_motion(*repaired, *before)) repaired.reset();
+  }
+  const MotionMeasure& bar = repaired ? *repaired : *before;
+  if (!raises_motion(after, bar)) return {};
 
   if (feet) {
     unlocked.restore(*output);
     MotionMeasure m = measure_motion(*output, before, *segments);
-    if (!raises_motion(m, *before)) {
+    if (!raises_motion(m, bar)) {
       unlock();
       kept = Kept::filtered;
       after = std::move(m);
@@ -128,7 +139,7 @@ Status MotionGuardJob::run() {
     output->translations = input->translations;
     if (Status s = lock(*output); !s) return s;
     m = measure_motion(*output, before, *segments);
-    if (!raises_motion(m, *before)) {
+    if (!raises_motion(m, bar)) {
       kept = Kept::input_locked;
       after = std::move(m);
       return {};
@@ -138,6 +149,10 @@ Status MotionGuardJob::run() {
   output->translations = input->translations;
   unlock();
   kept = Kept::input;
+  if (repaired) {
+    after = std::move(*repaired);
+    return {};
+  }
   after = measure_motion(*output, before, *segments);
   if (!raw || !raises_motion(after, *before)) return {};
   // The pop stage's repairs themselves raised jitter or skating: the clip as read.
