@@ -36,6 +36,10 @@ PopScreen::PopScreen(const PopRepairParams& params)
       candidates.push_back(block);
     }
   }
+  loose_weights.assign(n, 0.0);
+  for (const std::vector<double>& weights : block_weights)
+    for (std::size_t i = 0; i < n; ++i) loose_weights[i] = std::max(loose_weights[i], weights[i]);
+  loose_cutoff = params.floor;
   // The least-squares quadratic of all 2 window() points: (X^T X)^-1 X^T by cofactors.
   double s[5] = {};
   for (double o : offsets)
@@ -97,6 +101,13 @@ void pop_residual_bounds(std::span<const Quat> curve, const PopScreen& screen,
       const double o = screen.offsets[i];
       const Vec3 p = coefficient[0] + o * coefficient[1] + (o * o) * coefficient[2];
       deltas[i] += norm(points[i] - p);  // now a bound on |v_i - p(o_i)|
+    }
+    double loose = 0;
+    for (std::size_t i = 0; i < n; ++i) loose += screen.loose_weights[i] * deltas[i];
+    loose += norm(coefficient[0]) + kPopScreenMargin;
+    if (loose <= screen.loose_cutoff) {
+      bounds[std::size_t(t)] = loose;
+      continue;
     }
     double worst = 0;
     for (const std::vector<double>& weights : screen.block_weights) {

@@ -106,7 +106,8 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
   std::vector<double> rows(4 * n * lanes);
   const auto row = [&](int plane, std::size_t i) { return rows.data() + (plane * n + i) * lanes; };
   const V zero = hn::Zero(d), none = hn::Set(d, std::numeric_limits<double>::infinity()),
-          margin = hn::Set(d, kPopScreenMargin), count = hn::Set(d, double(n));
+          margin = hn::Set(d, kPopScreenMargin), count = hn::Set(d, double(n)),
+          cutoff = hn::Set(d, screen.loose_cutoff);
   const std::vector<std::vector<double>>& blocks = screen.block_weights;
   for (std::size_t c0 = W; c0 < end; c0 += kChunk) {
     const std::size_t c1 = std::min(end, c0 + kChunk), first = c0 - W;
@@ -162,6 +163,16 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
         // Row 3 becomes the bound on |v_i - p(o_i)|.
         hn::StoreU(hn::Add(error, hn::LoadU(d, row(3, i))), d, row(3, i));
       }
+      // The loose bound (step 5); where every lane's is at or below the cutoff, it is the bound.
+      V loose = zero;
+      for (std::size_t i = 0; i < n; ++i)
+        loose = hn::MulAdd(hn::Set(d, screen.loose_weights[i]), hn::LoadU(d, row(3, i)), loose);
+      loose = hn::Add(hn::Add(intercept, loose), margin);
+      const auto loose_enough = hn::Le(loose, cutoff);
+      if (hn::AllTrue(d, loose_enough)) {
+        hn::StoreU(hn::IfThenElse(hn::Eq(near, count), loose, none), d, bounds.data() + t);
+        continue;
+      }
       // The worst block's weighted sum, eight blocks at a time, then four, then one.
       V worst = zero;
       std::size_t b = 0;
@@ -170,7 +181,8 @@ void PopResidualBounds(std::span<const Quat> curve, const PopScreen& screen,
       for (; b + 4 <= blocks.size(); b += 4)
         worst = WorstOf<4>(d, blocks, b, row(3, 0), n, lanes, worst);
       for (; b < blocks.size(); ++b) worst = WorstOf<1>(d, blocks, b, row(3, 0), n, lanes, worst);
-      const V bound = hn::Add(hn::Add(intercept, worst), margin);
+      const V bound =
+          hn::IfThenElse(loose_enough, loose, hn::Add(hn::Add(intercept, worst), margin));
       hn::StoreU(hn::IfThenElse(hn::Eq(near, count), bound, none), d, bounds.data() + t);
     }
   }
