@@ -211,7 +211,10 @@ int leg_offsets(int count, Anchor anchor_at, Input input_at, bool follow_input,
           }
           sum = whole;
         } else {
-          for (int d = 1; d <= radius; ++d) {
+          // Past max(k, n - 1 - k) both taps lie outside the segment: the same sums, in the
+          // same order, without the Gaussian's tail (a contact is often shorter than it).
+          const int reach = std::min(radius, std::max(k, n - 1 - k));
+          for (int d = 1; d <= reach; ++d) {
             const double wd = w[std::size_t(d)];
             if (k - d >= 0) {
               sum += wd;
