@@ -138,8 +138,8 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       ->group("Evaluation");
   cmd->add_option("--guard", command.guard,
                   "auto's runs end with clean's guard (a clip whose jitter or skating came out "
-                  "above the noisy input's falls back to the input): on, as clean runs it; off, "
-                  "the filter (and the lock) alone")
+                  "above the noisy input's, or its pop-repaired copy's, falls back to the input): "
+                  "on, as clean runs it; off, the filter (and the lock) alone")
       ->check(CLI::IsMember({"on", "off"}))
       ->capture_default_str()
       ->group("Evaluation");

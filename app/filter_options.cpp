@@ -111,10 +111,11 @@ void FilterOptions::add_to(CLI::App& cmd, const std::string& default_method) {
   cmd.add_option("--guard", guard,
                  "after the filter and the feet: a clip whose joint positions come out with "
                  "more jitter or more foot skating than they went in with (the clip as read, "
-                 "over its own contacts) falls back to the filter without the lock, then to the "
-                 "input (pops repaired) locked, then to the input, then to the clip as read, so "
-                 "cleaning never makes a capture worse on what it can measure. Default: on with "
-                 "--method auto; off with a named method")
+                 "over its own contacts; where the pop stage repaired samples, the repaired "
+                 "clip, so that a pop's jitter cannot hide the filter's) falls back to the "
+                 "filter without the lock, then to the input (pops repaired) locked, then to the "
+                 "input, then to the clip as read, so cleaning never makes a capture worse on "
+                 "what it can measure. Default: on with --method auto; off with a named method")
       ->check(CLI::IsMember({"on", "off"}))
       ->group("Cleaning");
   auto* split_on = cmd.add_flag(
