@@ -118,12 +118,11 @@ Status MotionGuardJob::run() {
   // The bar a filtered candidate must clear: the clip as read, or the input when the pop stage
   // repaired samples and that raised nothing. Against the clip as read alone, a pop's jitter
   // hides whatever the filter adds to the motion around it.
+  // `repaired`: the input's measure, taken once, where it is not the clip as read.
   std::optional<MotionMeasure> repaired;
-  if (raw && (input->rotations != raw->rotations || input->translations != raw->translations)) {
+  if (raw && (input->rotations != raw->rotations || input->translations != raw->translations))
     repaired = measure_motion(*input, before, *segments);
-    if (raises_motion(*repaired, *before)) repaired.reset();
-  }
-  const MotionMeasure& bar = repaired ? *repaired : *before;
+  const MotionMeasure& bar = repaired && !raises_motion(*repaired, *before) ? *repaired : *before;
   if (!raises_motion(after, bar)) return {};
 
   if (feet) {
@@ -149,11 +148,7 @@ Status MotionGuardJob::run() {
   output->translations = input->translations;
   unlock();
   kept = Kept::input;
-  if (repaired) {
-    after = std::move(*repaired);
-    return {};
-  }
-  after = measure_motion(*output, before, *segments);
+  after = repaired ? std::move(*repaired) : measure_motion(*output, before, *segments);
   if (!raw || !raises_motion(after, *before)) return {};
   // The pop stage's repairs themselves raised jitter or skating: the clip as read.
   output->rotations = raw->rotations;
