@@ -28,7 +28,8 @@ Angles are in radians; append "deg" for degrees (--sigma-g 10deg).
 
 Exit status: 0 all clips written; 1 some (or all) clips failed (named on stderr), the rest
 written; 2 usage error, or the run could not start (missing source, no .bvh file, ...).
-README.md describes each method, its parameters and the library file's layout.)";
+README.md describes each method, its parameters and the library file's layout; the pages of
+docs/ explain each stage in depth (automatic parameters, positions, pops, feet, eval, performance).)";
 
 // Ends each command's help: its own examples.
 std::string examples(std::initializer_list<const char*> lines, const char* note = nullptr) {

@@ -184,7 +184,7 @@ CLI::App* add_eval_subcommand(CLI::App& app, EvalCommand& command) {
       "  mocap-clean eval mocap/ -o calib --methods bof,nlpm --grid bof.sigma_g=0.05,0.1,0.2\n"
       "  mocap-clean eval lib.h5 -o report --noise gaussian:0.03 --frame-step 4 --no-plots\n"
       "Each cell of the table: PSNR (dB) of the best grid point / of the automatic parameters,\n"
-      "pooled over all clips. See README.md, \"eval\".");
+      "pooled over all clips. See docs/eval.md.");
   return cmd;
 }
 

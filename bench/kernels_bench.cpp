@@ -309,7 +309,7 @@ BENCHMARK(BM_ForwardKinematics)
     ->Args({1, 0})
     ->Unit(benchmark::kMicrosecond);
 
-// Foot locking (README "Feet") on the bof fixture's motion, 31 joints x 1000 frames: a chain
+// Foot locking (docs/feet.md) on the bof fixture's motion, 31 joints x 1000 frames: a chain
 // skeleton with two legs (hip, knee, ankle, toe), each with four contacts of 150 frames (60 % of
 // the clip locked). Each iteration restores the joints the lock writes (the legs' hips, knees and
 // ankles), then locks them in place; compare with BM_Bof/fast:1/J:31/F:1000. Args: implementation

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Builds a large test library by replicating the clips of an imported library with different
 noise seeds: clip k is source clip k % S with gaussian tangent-space-like jitter (seed k) on its
-rotations. For memory and throughput measurements (README, "Performance"); the output is not
+rotations. For memory and throughput measurements (docs/performance.md); the output is not
 committed anywhere.
 
     mocap-clean import ../shared/data/bvh -o cmu.h5

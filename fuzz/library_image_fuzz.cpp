@@ -6,7 +6,7 @@
 // own parser (Debian's libhdf5, not instrumented), so a finding may lie inside HDF5; the reader's
 // part is to check before calling HDF5 whatever HDF5 would trust (shapes, chunk shapes, stored
 // sizes, compressed sizes) and to bound every allocation by what the image holds (run with
-// -malloc_limit_mb and -rss_limit_mb, see README "Nothing lost").
+// -malloc_limit_mb and -rss_limit_mb, see docs/reliability.md).
 // Every clip the reader reads and validates must be one export writes and import reads back,
 // and every error must name the file (and the clip).
 #include <hdf5.h>

@@ -77,7 +77,7 @@ bool write_attribute(hid_t object, const char* name, hid_t file_type, hid_t memo
 // Reads every element of a fixed-length string attribute or dataset, whose type and space are
 // given, with `read(memory_type, buffer)`. Variable-length strings are refused before HDF5 reads
 // them: their bytes live in the file's global heap, whose decoding in libhdf5 1.10 crashes and
-// hangs on damaged files (README, "Nothing lost").
+// hangs on damaged files (docs/reliability.md).
 template <class Read>
 std::optional<std::vector<std::string>> read_strings(hid_t file_type, hid_t space, Read read) {
   if (H5Tget_class(file_type) != H5T_STRING || H5Tis_variable_str(file_type) != 0)

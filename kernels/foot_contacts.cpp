@@ -75,7 +75,7 @@ std::vector<ContactInterval> detect(const std::vector<Vec3>& track, const FootCo
   // The speed thresholds allow for the noise's own speed: white noise of std n per axis adds
   // E|e|^2 = n^2 smoothed_speed_gain(sigma) / frame_time^2 to the squared speed of the smoothed
   // track, so a planted foot reads as moving. Entering takes sqrt(enter_speed^2 + a^2 E|e|^2)
-  // (a: noise_allowance); leaving keeps exit_speed unless that is lower (README "Feet",
+  // (a: noise_allowance); leaving keeps exit_speed unless that is lower (docs/feet.md,
   // "Contacts": raising both held lift-offs planted and cost rotations at low noise).
   double enter_speed = p.enter_speed, exit_speed = p.exit_speed;
   if (p.noise_allowance > 0) {

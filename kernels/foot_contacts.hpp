@@ -6,7 +6,7 @@
 // Per foot point, from its global track p[t] (Y up, file units):
 //   smoothed   = p convolved with a Gaussian of 0.04 s, so measurement noise of the evaluated
 //                levels (0.02 rad, 0.4 % of the body) does not read as speed; with
-//                noise_speed_fraction > 0 (off by default, README "Feet"), widened to where the
+//                noise_speed_fraction > 0 (off by default, docs/feet.md), widened to where the
 //                track's own noise n per frame (1.4826 MAD of its horizontal second differences
 //                / sqrt 6) reads as a mean speed 1.25 n / (2 pi^(1/4) sigma^1.5 frame_time) of at
 //                most that fraction of enter_speed, at most max_smoothing_seconds;
@@ -49,7 +49,7 @@ struct FootContactParams {
   double smoothing_seconds = 0.04;
   double max_smoothing_seconds = 0.25;
   // Of enter_speed: what the track's noise may read as (0: a width of smoothing_seconds only;
-  // README "Feet": widening the smoothing by the noise joined the swings of the demo's noisier
+  // docs/feet.md: widening the smoothing by the noise joined the swings of the demo's noisier
   // clips (0.05 rad) to their stances, and cost them 5-11 dB of rotation PSNR).
   double noise_speed_fraction = 0;
   // a: how many times the track's own noise speed e (the rms speed that its noise n, as above,
@@ -84,7 +84,7 @@ struct FootContactJob {
 };
 
 // The contacts found on a clip as it came, each widened over the frames where the same foot is
-// also planted in its filtered motion and stays put there (README "Feet", "Widening"). Noise
+// also planted in its filtered motion and stays put there (docs/feet.md, "Widening"). Noise
 // breaks a contact of the input into fragments and clips its ends (the detector's thresholds
 // read the noise as speed); the filtered motion, whose noise is gone, still holds the foot
 // planted across them. Per input contact k, pin p_k = the per-axis median (x, z) of the filtered

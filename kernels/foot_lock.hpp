@@ -1,7 +1,7 @@
 #pragma once
 // Foot locking: after a filter, pins each planted foot to one position per contact with analytic
 // two-bone IK on its leg, so that smoothing the joints one by one no longer makes the feet slide
-// (not part of the spec's filters; README "Feet").
+// (not part of the spec's filters; docs/feet.md).
 //
 // Per leg (hip -> knee -> ankle, optional toe below the ankle), Y up:
 //   Contacts. The frames where the ankle's contact list (kernels/foot_contacts.hpp, found on the
@@ -47,7 +47,7 @@
 //   Bend side. A knee the filter leaves near straight may bend a hair backwards (noise, or a
 //   capture that holds the knee straight): n then points the other way, the IK bends the knee
 //   backwards, and where the noise flips n (or turns it sideways) from frame to frame the knee
-//   chatters about it (README "Feet", "Bend side"). The side is the clip's own: its hinge h_ref
+//   chatters about it (docs/feet.md, "Bend side"). The side is the clip's own: its hinge h_ref
 //   is the bend-plane normal in the thigh's frame, h(t) = o_k x (q_k(t) o_a) (the knee's and
 //   the ankle's offsets, the knee's local rotation), at the frame where the knee bends most (of
 //   every 4th frame; at least kBendSideMinBend, else none and the rule above holds). A frame
@@ -64,7 +64,7 @@
 //   run taken as 0, the run's two end frames kept; m the input anchors' noise (stats'
 //   anchor_noise times body_height; 0 without input_anchors). Where noise makes the need come
 //   and go from frame to frame the root no longer steps down and back up with it (which bent
-//   the knee to and fro: README "Feet", "Reach"). No frame is lowered deeper than the deepest
+//   the knee to and fro: docs/feet.md, "Reach"). No frame is lowered deeper than the deepest
 //   need within w frames, nor less than its own need minus m: where G * d < d the IK clamps at
 //   max_reach and the ankle stops short of its pin by at most m, the capture's own noise there
 //   (max(d, G * d), m = 0, held it exactly but lowered the root through the need's dips and
@@ -113,7 +113,7 @@ struct FootLockParams {
   // knee speed (peak_knee_speed over all steps); < 0, no limit.
   double max_knee_speed = 0;
   // With input_anchors, the pins' Gaussian width (header, "Contacts"): pin_width frames per body
-  // height of the anchors' noise, within [min_pin_sigma, max_pin_sigma] seconds (README "Feet",
+  // height of the anchors' noise, within [min_pin_sigma, max_pin_sigma] seconds (docs/feet.md,
   // "Pin", says how they were chosen).
   double pin_width = 700;
   double min_pin_sigma = 0.02;
@@ -143,7 +143,7 @@ struct FootLockStats {
 // The working memory of FootLockJob::run (ozz-animation's scratch buffer): the fast path's planes
 // of one chunk of touched frames and every per-frame and per-leg vector. Owned by the caller and
 // reused across runs (clips): once it has grown to the longest clip, a run allocates nothing and
-// touches no fresh page (README "Feet", cost: fresh memory was most of the lock's time in the
+// touches no fresh page (docs/feet.md, cost: fresh memory was most of the lock's time in the
 // pipeline). What it holds between runs means nothing to the next (results do not depend on it);
 // it serves one run at a time (one per thread). The scalar reference allocates its own planes.
 struct FootLockScratch {

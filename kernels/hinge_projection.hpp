@@ -10,19 +10,18 @@
 // plane), a the principal axis of their chart points v_t = Log(m^-1 q_t) (a line through 0 along
 // a for a hinge). The chordal chart 2 vec(m^-1 q_t) would spare the arc tangents, but it reads
 // the spread off the axis cos(angle / 2) smaller far from m, and at 0.12 rad and 120 fps it let
-// hips in (README "Hinges under noise"); the statistics read every F / kHingeFitSamples-th sample
-// instead. A
-// joint is taken for a hinge when the spread of the chart points off that axis (the square roots of
-// the two smaller eigenvalues of their second moments) is at most `spread_over_noise` x the clip's
-// estimated noise sigma, what noise alone gives a hinge, and the spread along it at least
-// `motion_over_noise` x sigma (it moves): a joint that turns about several axes spreads off any one
-// of them by its motion, far more than the noise. Measured on the shared clips with eval's gaussian
-// noise (0.008-0.12 rad, 120 and 30 fps, the clip's noise estimate sigma): the eight hinges spread
-// 0.85-1.26 sigma off their axes; a joint that really turns about several axes spreads by sqrt(its
-// own secondary motion^2 + sigma^2), and that motion can be as small as 0.012 rad RMS (02_01's
-// Spine): a limit of 1.3 sigma keeps such a joint out at 0.008 rad, where 1.5 let some in (and at
-// 0.12 rad, hips whose abduction is about the noise's size: joint position error up 7 %, README
-// "Hinges under noise").
+// hips in (docs/automatic-parameters.md, "Hinges under noise"); the statistics read every F /
+// kHingeFitSamples-th sample instead. A joint is taken for a hinge when the spread of the chart
+// points off that axis (the square roots of the two smaller eigenvalues of their second moments) is
+// at most `spread_over_noise` x the clip's estimated noise sigma, what noise alone gives a hinge,
+// and the spread along it at least `motion_over_noise` x sigma (it moves): a joint that turns about
+// several axes spreads off any one of them by its motion, far more than the noise. Measured on the
+// shared clips with eval's gaussian noise (0.008-0.12 rad, 120 and 30 fps, the clip's noise
+// estimate sigma): the eight hinges spread 0.85-1.26 sigma off their axes; a joint that really
+// turns about several axes spreads by sqrt(its own secondary motion^2 + sigma^2), and that motion
+// can be as small as 0.012 rad RMS (02_01's Spine): a limit of 1.3 sigma keeps such a joint out at
+// 0.008 rad, where 1.5 let some in (and at 0.12 rad, hips whose abduction is about the noise's
+// size: joint position error up 7 %, docs/automatic-parameters.md, "Hinges under noise").
 #include <cstdint>
 #include <span>
 

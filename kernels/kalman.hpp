@@ -49,7 +49,7 @@ void rts_smooth(std::span<const double> signal, double lambda, std::span<double>
 // estimate") and frame time dt (s):
 //     lambda = kKalmanAutoScale (120 dt)^2.5 / sigma_hat^3
 // calibrated on ../shared/data/bvh (120 fps) with added gaussian noise 0.008, 0.03, 0.12 rad
-// (`mocap-clean eval`, README "eval"): the best lambda fell from about 3 to 0.001 over that range,
+// (`mocap-clean eval`, docs/eval.md): the best lambda fell from about 3 to 0.001 over that range,
 // as sigma_hat^-3, not as the model's own r = sigma_hat^2 (constant q) would say. The model
 // assumes a motion spectrum falling as w^-4; captured motion falls more slowly (about w^-8/3 by
 // this fit), and for such a spectrum the Wiener smoother's cut-off gives lambda ~ sigma^-3 and,

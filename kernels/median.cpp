@@ -43,8 +43,8 @@ bool select_round(const double* from, double* to, std::size_t& count, std::size_
 // those between two order statistics of a sample that bracket the middle ranks; a second round
 // runs on those when they are still many, and nth_element finishes on what is left. When a
 // round's bracket misses a middle rank (improbable, or an adversarial order) nth_element runs on
-// that round's input, which holds the wanted ranks, so the value is always exact (speed: README
-// "Performance", mocap-microbench BM_Median).
+// that round's input, which holds the wanted ranks, so the value is always exact (speed:
+// docs/performance.md, mocap-microbench BM_Median).
 double median(std::vector<double>& values) {
   constexpr std::size_t kMinSize = 512;
   const std::size_t n = values.size();

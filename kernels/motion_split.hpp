@@ -23,7 +23,7 @@
 //     max(min_pose_step, max_pose_speed * frame_time)
 // min_pose_step lies between the T-pose's pose step and real motion's down to 24 fps; below,
 // max_pose_speed raises the threshold past real motion, and a T-pose may then go unflagged
-// rather than real motion being cut (README "eval" has the measurements). The pose step needs a
+// rather than real motion being cut (docs/eval.md has the measurements). The pose step needs a
 // body: with fewer than kPoseStepMinJoints joints counted, one limb swinging or one joint popping
 // is a large share of the mean, so the rule is not applied.
 //
@@ -35,8 +35,8 @@
 // its median step and the pose step's at least kPoseStepOverMedian x the median pose step.
 // Noise's steps spread little around their median (the pose step is a mean over joints; one
 // joint's step, Maxwell-distributed, exceeds 4x its median with probability about 3e-8), and a
-// real capture's medians are far below the thresholds, so its cuts do not change (README
-// "eval", "Noise and the split", has the measurements).
+// real capture's medians are far below the thresholds, so its cuts do not change
+// (docs/eval.md, "Noise and the split", has the measurements).
 #include <cstdint>
 #include <span>
 #include <vector>

@@ -16,12 +16,12 @@
 // so only the largest detour of its neighbourhood is flagged; and a pop on an end frame, which has
 // no detour of its own, shows as one on the frame next to it, so the two frames at each end are
 // left to find_pops.
-// Calibrated with `eval --pop-stage repair` at 30 and 24 fps on ../shared/data/bvh (README "Pops
-// and garbage joints").
+// Calibrated with `eval --pop-stage repair` at 30 and 24 fps on ../shared/data/bvh (docs/pops.md).
 // Noise. Sensor noise gives every sample a detour (white noise of sigma rad per axis: a joint's
 // median E about 2 sigma), so under heavy noise the threshold flagged noise: with at least
 // kNoiseMinSteps detours, a joint's threshold is at least kDetourOverMedian x its median E. A
-// capture's median E is far below (README "Noise and the split"), so its flags do not change.
+// capture's median E is far below (docs/eval.md, "Noise and the split"), so its flags do not
+// change.
 #include <cstdint>
 #include <span>
 

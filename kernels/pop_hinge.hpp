@@ -27,8 +27,8 @@
 // test reads the whole clip: the clip's segments (kernels/motion_split.hpp) do not matter to a
 // hinge, so a pop on a frame that is a segment of its own (CMU's T-pose frame 0) is found too;
 // project_onto_hinge then repairs what the segment's repair cannot reach. Cost: a noisy joint is
-// ruled out on a probe of kHingeProbe steps (pop_hinge.cpp); measured in README "Pops and garbage
-// joints", "Hinges".
+// ruled out on a probe of kHingeProbe steps (pop_hinge.cpp); measured in docs/pops.md,
+// "Hinges".
 #include <cstdint>
 #include <span>
 

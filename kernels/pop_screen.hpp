@@ -76,7 +76,7 @@ inline constexpr double kPopIntervalSse = 1e-9;   // rad^2: the intervals' allow
 //      the scores, kPopScreenMargin on the ends.
 // The medians with lo and with hi in place of the screened samples' values bracket the scale as
 // 0 and the bounds do (find_pops), but closely, so far fewer residuals need their exact fits
-// (measured in README "Performance").
+// (measured in docs/performance.md).
 // The weights of the bound for one PopRepairParams (its whole window's candidate fits).
 struct PopScreen {
   int window = 0, max_run = 0;  // of the PopRepairParams it was made for

@@ -16,8 +16,8 @@
 // popped side by side in the same frame, which the spec's pops make (rate 0.01 per sample) and a
 // limb in motion, three joints or more, does not look like. coherence, reach and pop_group were
 // calibrated with `eval --pop-stage repair` at 30 and 24 fps on ../shared/data/bvh, together with
-// the detour test (kernels/pop_detour.hpp) whose flags this test also reads (README "Pops and
-// garbage joints": the grids and what each choice cost).
+// the detour test (kernels/pop_detour.hpp) whose flags this test also reads (docs/pops.md:
+// the grids and what each choice cost).
 //
 // Strong detours. A neighbour's quadratic also misses for reasons of its own: at a segment's
 // first frames its fit extrapolates, and a fast limb there leaves it 0.3-0.5 rad off, enough to

@@ -272,7 +272,7 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
     test.steps = &angles;
     test.step_offset = seg.begin;
     // Below kPopsRepairMinFps, where the skeleton test judges every flag (measured there only:
-    // README "Pops and garbage joints", "Strong detours").
+    // docs/pops.md, "Strong detours").
     if (!high_rate) {
       test.strong_detour = kPopStrongDetour;
       test.median_detours = median_detours;
@@ -302,8 +302,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
   // kPopsRepairMinFps and above, the detour test adds the pops that a fast joint's fit error hid,
   // each of its flags kept only where the skeleton test, with every flagged neighbour counting
   // (pop_group 0), finds no neighbour moving with it: a capture's own jitter moves a foot and its
-  // toe together. A clip without pops keeps the per-joint test alone (README "Pops and garbage
-  // joints", "Many pops").
+  // toe together. A clip without pops keeps the per-joint test alone (docs/pops.md,
+  // "Many pops").
   const double samples = double(F) * double(J);
   const bool many_pops =
       samples > 0 &&

@@ -56,8 +56,8 @@ ClipConditioning condition_rotations(PopsMode mode, RotationSpan rotations, doub
 // kPopsRepairMinFps and above; below, runs of at most 2 (a window of 4 neighbours a side, 133 ms
 // at 30 fps where 5 spanned 167 ms) and a flag 8 times further from its fit than the fit's own
 // error (6 above). Calibrated with `eval --pop-stage repair` on the 9 shared clips at 30 fps over
-// max_run 1-3, local threshold 4-16, threshold 6-10 and reach 2-3 (README "Pops and garbage
-// joints", "The test's parameters below 60 fps").
+// max_run 1-3, local threshold 4-16, threshold 6-10 and reach 2-3 (docs/pops.md,
+// "The test's parameters below 60 fps").
 PopRepairParams pop_params_at(double frame_time);
 
 // condition_rotations on the clip, but nothing at all for method none (a copy) or pops off (the

@@ -47,7 +47,7 @@ enum class PopsMode { off, detect, repair, automatic };
 // glitches on a clean capture; repairing those costs more on light noise than pops gain, so auto
 // repairs there only where the flags are many: a clip with pops flags several times the share a
 // clip without them does, down to kAutoRepairMinFps; below it, clean motion alone flags that many
-// (README "Pops and garbage joints", "Many pops": the shares measured at 10-30 fps). At 60 fps and
+// (docs/pops.md, "Many pops": the shares measured at 10-30 fps). At 60 fps and
 // above the same share adds the detour test to the pop test (clip_conditioning.hpp).
 inline constexpr double kManyPopsFlagged = 0.004;
 inline constexpr double kAutoRepairMinFps = 20;
@@ -59,7 +59,7 @@ std::optional<Method> parse_method(std::string_view name);
 std::string_view to_string(Method method);
 
 // nlpm's automatic strength: h = kNlpmAutoFactor * sigma_hat (spec "Noise level estimate"),
-// calibrated on ../shared/data/bvh with added noise (README, "Automatic parameters"; `mocap-clean
+// calibrated on ../shared/data/bvh with added noise (docs/automatic-parameters.md; `mocap-clean
 // eval --grid nlpm.h_factor=...`): 1.2 is within 0.02 dB of the best h at 0.008, 0.03, 0.12 rad.
 inline constexpr double kNlpmAutoFactor = 1.2;
 
@@ -83,10 +83,10 @@ BilateralParams automatic_bilateral(BilateralParams params, double sigma_hat, do
 //   sigma_g = kAutoSigmaGFactor sigma_hat / sqrt(n)
 //   sigma_t = max(1, kAutoSigmaTFactor sqrt(sigma_hat) (1 / (120 frame_time))^(1/2) / sqrt(n))
 // Calibrated with `eval --grid bof.iterations=1,2,3,5 --grid bof.sigma_g_factor=2,3,4,5,6,8
-// --grid bof.sigma_t_factor=7,10,15,20,28,40` on ../shared/data/bvh at 120 and 30 fps (README
-// "Automatic parameters"): the best points had sigma_t sqrt(n) / sqrt(sigma_hat) of 20-28 frames
-// at 120 fps and 1.4x that (in units of automatic_bilateral's (fps / 120)^(3/4)) at 30 fps, i.e.
-// a frame-rate exponent of 1/2, not 3/4; sigma_g 4-5 sigma_hat at one pass, 2-3 at 3-5 passes.
+// --grid bof.sigma_t_factor=7,10,15,20,28,40` on ../shared/data/bvh at 120 and 30 fps
+// (docs/automatic-parameters.md): the best points had sigma_t sqrt(n) / sqrt(sigma_hat) of 20-28
+// frames at 120 fps and 1.4x that (in units of automatic_bilateral's (fps / 120)^(3/4)) at 30 fps,
+// i.e. a frame-rate exponent of 1/2, not 3/4; sigma_g 4-5 sigma_hat at one pass, 2-3 at 3-5 passes.
 // sigma_g 4 (not 5) at one pass: at 30 fps and 0.008 rad 5 left one clip 0.32 dB below its
 // noisy input, 4 none.
 inline constexpr double kAutoNoisePerIteration = 0.06;
@@ -117,7 +117,7 @@ double automatic_translation_sigma_t(TranslationNoise noise, double frame_time, 
 double body_height(const Skeleton& skeleton);
 
 // nlpm's automatic range term (NlpmParams::range_sigma), asked for with --nlpm-range auto:
-// range_sigma = kNlpmAutoRangeFactor * sigma_hat (README "Automatic parameters").
+// range_sigma = kNlpmAutoRangeFactor * sigma_hat (docs/automatic-parameters.md).
 inline constexpr double kNlpmAutoRangeFactor = 5.0;
 
 struct FilterSettings {
@@ -223,7 +223,7 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
                                   const ClipFacts& known = {});
 
 // What --method auto picks for a clip of estimated noise sigma_hat (rad): the method and its
-// parameters (README "Automatic parameters"):
+// parameters (docs/automatic-parameters.md):
 //   sigma_hat < kAutoCleanBelow   nlpm, h = max(kNlpmAutoFactor sigma_hat, kAutoNlpmMinH),
 //   (kAutoNlpmMinFps and above):  range = max(kNlpmAutoRangeFactor sigma_hat, kAutoNlpmMinRange)
 //   otherwise:                    bof, automatic_smoothing (iterations and widths from sigma_hat
@@ -241,8 +241,8 @@ ResolvedSettings resolve_for_clip(const FilterSettings& settings, const Clip& cl
 // Below kAutoNlpmMinFps the estimate cannot tell a capture with no noise: the clean CMU clips
 // measure 0.0032-0.0097 rad at 30 fps (the motion between samples reads as noise), so the branch
 // split them at random; bof kept them closer to the capture than nlpm did in rotations and joint
-// positions, at a little more jitter and, without the lock, more skating on pops (README
-// "Automatic parameters", "Below 60 fps").
+// positions, at a little more jitter and, without the lock, more skating on pops
+// (docs/automatic-parameters.md, "Below 60 fps").
 inline constexpr double kAutoCleanBelow = 0.004;
 inline constexpr double kAutoNlpmMinFps = 60;
 // Noisy positions: the position channels' noise (estimate_translation_noise) above
@@ -254,8 +254,8 @@ inline constexpr double kAutoNlpmMinFps = 60;
 // the noise above it; its cut-off, automatic_cutoff,
 //   kAutoCutoffHz (kAutoCutoffSigma / sigma_hat)^(1/6) (fps / 30)^(1/6)
 // within [kAutoCutoffMinHz, kAutoCutoffMaxNyquist x Nyquist], falls as the noise rises and rises
-// with the frame rate as the worst clip's joint position error asked in the calibration (README
-// "Positions": eval's grid, the measurements, what it costs the rotations). On rotation-only
+// with the frame rate as the worst clip's joint position error asked in the calibration
+// (docs/positions.md: eval's grid, the measurements, what it costs the rotations). On rotation-only
 // noise the PSNR-best branches stay.
 inline constexpr int kAutoButterworthOrder = 4;
 inline constexpr double kAutoCutoffHz = 4.0;
@@ -274,7 +274,7 @@ double automatic_cutoff(double sigma_hat, double frame_time);
 // knees (`legs`, leg_joints_of): they carry a planted foot, and raising theirs let 02_03's feet
 // skate where its short contacts went unfound. Only ever raised: the slow proximal joints' motion
 // hides under the noise (snr near 0) but is real, and a lower cut-off there moved every joint
-// below them (README "Positions", "Per-joint cut-offs").
+// below them (docs/positions.md, "Per-joint cut-offs").
 inline constexpr double kAutoJointCutoffSnr = 0.3;
 inline constexpr double kAutoJointCutoffMaxFactor = 3.0;
 int joint_cutoff_lag(double frame_time);  // L >= 1
@@ -289,15 +289,15 @@ inline constexpr double kNoisyPositions = 0.0015;
 // sigma_hat 0.001-0.002 rad) h = 1.2 sigma_hat and a range of 5 sigma_hat are so selective that
 // which neighbours get weight changes from frame to frame: the output staircases, and the joint
 // positions came out with 1.04-1.79x the input's jitter and 1.3-2.3x its foot skating (clean, the
-// 9 shared clips, 120 fps). With these floors: jitter 0.24-1.04x, skating 0.47-1.21x (README,
-// "Positions").
+// 9 shared clips, 120 fps). With these floors: jitter 0.24-1.04x, skating 0.47-1.21x
+// (docs/positions.md).
 inline constexpr double kAutoNlpmMinH = 0.015;
 inline constexpr double kAutoNlpmMinRange = 0.1;
 // auto's nlpm caps each joint's term of the pose distance at kAutoNlpmDistanceCap times its range
 // width (NlpmParams::distance_cap): a capture's own one-frame glitch, or a pop the pop stage
 // missed, otherwise makes every patch that holds it unlike its neighbours, and the weights then
 // average a fast knee toward one side. Calibrated with eval on the shared clips, clean and with
-// pops, at 120 and 30 fps (README "Automatic parameters", "The distance cap").
+// pops, at 120 and 30 fps (docs/automatic-parameters.md, "The distance cap").
 inline constexpr double kAutoNlpmDistanceCap = 2.0;
 FilterSettings choose_automatic(const FilterSettings& settings, double sigma_hat,
                                 bool noisy_positions = false, double frame_time = 1.0 / 120);

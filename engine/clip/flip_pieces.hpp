@@ -5,7 +5,7 @@
 // flip smears the turn of pi over its neighbours. So each piece between two flips is filtered as a
 // clip of its own (flip_piece_settings: its noise estimate comes from the other joints), and the
 // flips stay where the capture has them: the joint comes out as smooth as its neighbours
-// where it is smooth, and no flip is moved, added or removed (README "Pops and garbage joints").
+// where it is smooth, and no flip is moved, added or removed (docs/pops.md).
 // Where the flips are all one rotation (kernels/flip_chart.hpp), a piece runs across them, read
 // with them taken out and written with them put back, so that pieces of one or two frames
 // between flips have neighbours too.
@@ -52,7 +52,7 @@ inline constexpr int kFlipPieceMinFrames = 3;
 // branch the other joints took, and no filter at all (the joint stays as it came) below
 // kAutoCleanBelow: a low-pass rings on pieces a few frames long, and a capture with no noise has
 // nothing to take out of them; bof's range weight keeps a piece's change within a few sigma_hat
-// (README "Pops and garbage joints": what the other choices cost 06_14).
+// (docs/pops.md: what the other choices cost 06_14).
 std::optional<FilterSettings> flip_piece_settings(const FilterSettings& asked,
                                                   const FilterSettings& resolved, double sigma_hat,
                                                   double frame_time);

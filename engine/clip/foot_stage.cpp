@@ -57,7 +57,7 @@ bool find_contacts(const Clip& clip, const std::vector<FootChain>& legs,
 }
 
 // The input's contacts widened by the filtered motion's (kernels/foot_contacts.hpp,
-// widen_contacts; README "Feet", "Widening").
+// widen_contacts; docs/feet.md, "Widening").
 void widen_by_filtered(ClipFeet& feet, const Clip& filtered) {
   const std::vector<float> ankles = ankle_tracks(filtered, feet.legs);
   std::vector<std::vector<ContactInterval>> found;

@@ -1,5 +1,5 @@
 #pragma once
-// Foot locking as an engine stage (README "Feet"): contacts found on a clip as it came (after
+// Foot locking as an engine stage (docs/feet.md): contacts found on a clip as it came (after
 // pop repair, before the filter), and the planted feet pinned on the filtered clip
 // (kernels/foot_lock.hpp). Also the tally of a run, for --json and the closing line.
 #include <cstddef>
@@ -16,11 +16,11 @@
 namespace mocap::engine {
 
 // How far (body heights, horizontal) a planted foot of the filtered motion may stand from its
-// contact's pin for widen_contacts to grow the contact over it (README "Feet", "Widening", says
+// contact's pin for widen_contacts to grow the contact over it (docs/feet.md, "Widening", says
 // how it was chosen).
 constexpr double kWidenReach = 0.02;
 // The lock's contact detector lets a foot enter a contact at up to this many times its track's
-// noise speed above the enter threshold (FootContactParams::noise_allowance; README "Feet",
+// noise speed above the enter threshold (FootContactParams::noise_allowance; docs/feet.md,
 // "Contacts", says how it was chosen). The skating metric's contacts use none, nor does the
 // widening's detector on the filtered motion, whose noise the filter removed (with the allowance
 // there too, eval's report is the same but for one skating figure in the fourth digit, and the

@@ -4,9 +4,10 @@
 // curve, segment by segment; only where the noise estimate is at most kAutoNoisePerIteration,
 // where auto's bof runs one pass and leaves most of the noise: above, the filter's own passes
 // take most of it out, and at 0.12 rad the projection took hips whose abduction is of the
-// noise's size for hinges (joint position error 21.66 -> 23.18 mm at 120 fps, README "Hinges
-// under noise"). One function for `clean` (engine/run/job.cpp) and eval
-// (engine/eval/eval_run.cpp), so that eval scores what `clean` writes.
+// noise's size for hinges (joint position error 21.66 -> 23.18 mm at 120 fps,
+// docs/automatic-parameters.md, "Hinges under noise"). One function for `clean`
+// (engine/run/job.cpp) and eval (engine/eval/eval_run.cpp), so that eval scores what `clean`
+// writes.
 #include <cstdint>
 #include <span>
 

@@ -122,7 +122,7 @@ struct EvalVariant {
   std::string_view name{};       // eval's --methods name
   std::string_view note{};       // a word on it in eval's --help (empty: none)
   Method method = Method::none;  // a method without a name in Method: find_method("...")->method
-  // The parameters a grid may name (README "eval"), and the default grid's axes.
+  // The parameters a grid may name (docs/eval.md), and the default grid's axes.
   std::vector<std::string> parameters{};
   std::vector<GridAxis> axes{};
   // The automatic rule, as eval's report states it.

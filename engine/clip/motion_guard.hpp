@@ -1,15 +1,15 @@
 #pragma once
 // "Never makes a capture worse", checked on what a viewer sees and what can be measured without
-// ground truth (README "Never worse"): the joint positions' jitter and the feet's skating over
-// the input's contacts (engine/clip/motion_check.hpp). After --method auto's filter and the foot
-// lock, a clip that comes out with more jitter or more skating than the clip as read falls back
-// to the first of these that raises neither:
+// ground truth (docs/positions.md, "Never worse"): the joint positions' jitter and the feet's
+// skating over the input's contacts (engine/clip/motion_check.hpp). After --method auto's filter
+// and the foot lock, a clip that comes out with more jitter or more skating than the clip as read
+// falls back to the first of these that raises neither:
 //   filtered and locked -> filtered -> input (pops repaired) locked -> input (pops repaired)
 //   -> the clip as read (which raises nothing by definition).
 // Both are measured inside the resolved segments, as eval scores them. When the pop stage
 // repaired samples and the repaired input raises neither measure over the clip as read, the
 // first three must not raise the repaired input's instead: a pop's jitter would hide what the
-// filter adds around it (README "Never worse").
+// filter adds around it (docs/positions.md, "Never worse").
 // The one step after the filter (and auto's hinges) for `clean` (engine/run/job.cpp), the Python
 // module and eval alike, so that they lock and fall back the same way; with `guard` false it is
 // the foot lock alone.

@@ -79,7 +79,7 @@ struct Score {
   double speed_n = 0;
   double max_error = 0;  // rad: the largest rotation error of any joint that is not garbage
   // The peak angular speed of the knees (the parents of geometry.feet's ankles) over the scored
-  // steps, as a ratio to the clean clip's peak (README "Feet": no knee pop); the largest over
+  // steps, as a ratio to the clean clip's peak (docs/feet.md: no knee pop); the largest over
   // pooled clips.
   double knee_peak_ratio = 0;
   // Joint positions of every joint (spec "Metrics"), in mm, over the scored frames of each segment

@@ -177,7 +177,7 @@ std::vector<Table> all_tables(const EvalResults& r, const EvalConfig& config) {
   };
 }
 
-// Per clip, the targets of foot locking (README "Feet"), automatic parameters without / with
+// Per clip, the targets of foot locking (docs/feet.md), automatic parameters without / with
 // locking: skating over the clean capture's contacts, x the capture's; the knees' peak angular
 // speed, x the capture's; MPJPE, x the noisy input's.
 std::vector<Table> feet_tables(const EvalResults& r, const EvalConfig& config) {

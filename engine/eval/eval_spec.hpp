@@ -47,7 +47,7 @@ std::vector<NoiseCondition> default_noise_conditions();
 // ParamPoint, one grid point, and GridAxis: engine/clip/methods.hpp.
 std::string describe(const ParamPoint& point);  // "sigma_g=0.2 sigma_t=1"
 
-// The parameters a method takes in a grid (README "eval"):
+// The parameters a method takes in a grid (docs/eval.md):
 //   bof: sigma_g | sigma_g_factor [+ sigma_g_floor], sigma_t | sigma_t_factor, iterations
 //   nlpm: h | h_factor, K, P          gaussian: sigma_t
 //   butterworth: cutoff, order        moving-mean: passes
@@ -76,7 +76,7 @@ struct MethodGrid {
   // distance (what `clean` does by default); false: the spec's filter on the noisy clip.
   bool repaired = false;
   // Foot locking after the filter (engine/clip/foot_stage.hpp, as `clean --feet lock`), with the
-  // contacts found on the noisy clip the filter saw (README "Feet").
+  // contacts found on the noisy clip the filter saw (docs/feet.md).
   bool lock_feet = false;
 };
 // One grid per method and pops mode: with_plain, the spec's filter; with_repaired, the same after

@@ -6,7 +6,7 @@
 // complete clips. finish() joins the parts into one self-contained OUT and removes OUT.parts.
 // A single writer (not shared parts) that starts with no committed part also copies every clip
 // into OUT.parts/joined.h5.tmp as it goes, so that finish() only closes and renames that file
-// instead of reading every part back (the serial join's cost: README "Performance"). That copy is
+// instead of reading every part back (the serial join's cost: docs/performance.md). That copy is
 // dropped, and the parts joined as before, as soon as it could differ from the committed parts: an
 // abandoned part, or any of its own writes failing.
 // --resume reopens OUT.parts and skips the clips its committed parts hold.

@@ -1,7 +1,7 @@
 #pragma once
 // Where a run's time goes (issue 15): seconds of work per stage, summed over clips and threads,
 // so with two threads the stages add up to about twice the wall time. Reported in --json as
-// "stages"; the README's performance section quotes it.
+// "stages"; docs/performance.md quotes it.
 #include <array>
 #include <atomic>
 #include <chrono>

@@ -4,7 +4,7 @@
 // evaluated: d(q_i, q_{i+r}) = d(q_{i+r}, q_i) gives the r < 0 half (and d = 0 at r = 0).
 //
 // Two layouts of the same kernel, kept side by side because the choice between them was made by
-// measuring them (bench/kernels_bench.cpp, README "Performance"):
+// measuring them (bench/kernels_bench.cpp, docs/performance.md):
 //   lanes = time:   each joint's curve transposed into planes w[], x[], y[], z[]; a vector holds
 //                   consecutive frames of one joint. What bof, the linear filters and nlpm use.
 //   lanes = joints: LoadInterleaved4 turns a [J][4] row into w, x, y, z vectors of consecutive

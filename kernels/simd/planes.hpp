@@ -1,7 +1,7 @@
 #pragma once
 // The structure-of-arrays layout of the SIMD kernels: a curve of samples along time as planes of
 // floats (w[], x[], y[], z[] for rotations), so that a vector holds consecutive frames of one
-// joint (lanes = time; see the README's performance section for why not lanes = joints).
+// joint (lanes = time; see docs/performance.md for why not lanes = joints).
 #include <cstddef>
 
 namespace mocap::simd {

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <regex>
 #include <sstream>
 
 #include "engine/clip/filter_settings.hpp"
@@ -61,8 +62,11 @@ std::vector<std::string> write_demo_files(const fs::path& folder, std::size_t co
   return names;
 }
 
+fs::path repository_root() {
+  return fs::path(__FILE__).parent_path().parent_path().parent_path();
+}
 fs::path readme_path() {
-  return fs::path(__FILE__).parent_path().parent_path().parent_path() / "README.md";
+  return repository_root() / "README.md";
 }
 
 TEST(Cli, CleanWithMethodNoneReproducesEverySharedClip) {
@@ -571,9 +575,12 @@ TEST(Cli, HelpStandsOnItsOwnAndEveryErrorIsPrefixed) {
   }
 }
 
-TEST(Cli, TheReadmeAgreesWithTheCode) {
+TEST(Cli, TheDocsAgreeWithTheCode) {
   const std::string readme = test::read_text(readme_path());
   ASSERT_FALSE(readme.empty()) << readme_path();
+  const fs::path automatic_path = repository_root() / "docs/automatic-parameters.md";
+  const std::string automatic = test::read_text(automatic_path);
+  ASSERT_FALSE(automatic.empty()) << automatic_path;
   // The method table has a row for every method --method takes, and names no other.
   for (const char* name :
        {"bof", "nlpm", "gaussian", "butterworth", "moving-mean", "kalman", "auto", "none"}) {
@@ -582,12 +589,12 @@ TEST(Cli, TheReadmeAgreesWithTheCode) {
   }
   // The automatic parameters, with the code's constants (line breaks read as spaces).
   std::string flat;
-  for (char c : readme) {
+  for (char c : automatic) {
     const bool space = c == '\n' || c == ' ';
     if (!(space && !flat.empty() && flat.back() == ' ')) flat += space ? ' ' : c;
   }
   auto expect = [&](const std::string& formula) {
-    EXPECT_NE(flat.find(formula), std::string::npos) << "README lacks: " << formula;
+    EXPECT_NE(flat.find(formula), std::string::npos) << automatic_path << " lacks: " << formula;
   };
   expect(fmt::format("`sigma_g = {:g} sigma_hat`", engine::kBofAutoSigmaGFactor));
   expect(fmt::format("`sigma_t = max(1, {:g} sqrt(sigma_hat) (fps / 120)^0.75)`",
@@ -599,7 +606,7 @@ TEST(Cli, TheReadmeAgreesWithTheCode) {
   expect(fmt::format("`sigma_g = {:g} sigma_hat / sqrt(n)`", engine::kAutoSigmaGFactor));
   expect(fmt::format("`sigma_t = max(1, {:g} sqrt(sigma_hat) (fps / 120)^0.5 / sqrt(n))`",
                      engine::kAutoSigmaTFactor));
-  // bof's sigma_t does scale with the frame rate as the README says: 30 fps against 120 fps.
+  // bof's sigma_t does scale with the frame rate as the page says: 30 fps against 120 fps.
   BilateralParams p;
   p.sigma_g = 0;
   p.sigma_t = 0;
@@ -612,6 +619,43 @@ TEST(Cli, TheReadmeAgreesWithTheCode) {
       1e-12);
   // No command of the README points outside the clone without saying so.
   EXPECT_NE(readme.find("cmake --install build"), std::string::npos);
+}
+
+// The README and the pages of docs/ link to each other and to figures by relative paths, and the
+// sources cite the pages (docs/feet.md, ...): each of those must lead to a file of the clone.
+TEST(Cli, EveryLinkOfTheDocsLeadsToAFile) {
+  const fs::path root = repository_root();
+  std::vector<fs::path> pages{root / "README.md"};
+  for (const auto& entry : fs::directory_iterator(root / "docs"))
+    if (entry.path().extension() == ".md") pages.push_back(entry.path());
+  ASSERT_GE(pages.size(), 2u) << "no page in " << root / "docs";
+  const std::regex link(R"(\]\(([^)#\s]+)(#[^)]*)?\))");
+  int links = 0;
+  for (const fs::path& page : pages) {
+    const std::string text = test::read_text(page);
+    ASSERT_FALSE(text.empty()) << page;
+    for (std::sregex_iterator it(text.begin(), text.end(), link), end; it != end; ++it) {
+      const std::string target = (*it)[1];
+      if (target.find("://") != std::string::npos) continue;
+      ++links;
+      EXPECT_TRUE(fs::exists(page.parent_path() / target)) << page << " links to " << target;
+    }
+  }
+  EXPECT_GT(links, 10);
+  // The sources' citations of a page: "docs/NAME.md" in any file of the layers and tests.
+  const std::regex cited(R"(docs/([a-z-]+\.md))");
+  int citations = 0;
+  for (const char* layer : {"app", "core", "engine", "io", "kernels", "python", "bench", "tests"})
+    for (const auto& entry : fs::recursive_directory_iterator(root / layer)) {
+      if (!entry.is_regular_file()) continue;
+      const std::string text = test::read_text(entry.path());
+      for (std::sregex_iterator it(text.begin(), text.end(), cited), end; it != end; ++it) {
+        ++citations;
+        EXPECT_TRUE(fs::exists(root / "docs" / std::string((*it)[1])))
+            << entry.path() << " cites docs/" << (*it)[1];
+      }
+    }
+  EXPECT_GT(citations, 10);
 }
 
 TEST(Cli, InstallPutsTheBinaryOnAPrefix) {

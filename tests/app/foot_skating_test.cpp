@@ -2,12 +2,12 @@
 // clips at 120 fps and decimated to 30 fps: skating over the capture's contact frames, knee
 // angular-speed peaks and joint position error, with `clean`'s defaults (--method auto, which
 // locks the feet) against the same run with --feet off. Prints one line per clip and condition
-// (the README's "Feet" table comes from it). Checks the targets that hold on every clip (README
-// "Feet"): without noise, skating <= 1.05x the capture's and the knees' peak angular speed <=
-// 1.2x the input's, at both rates; with noise, on every clip, locking lowers skating below
+// (docs/feet.md's table comes from it). Checks the targets that hold on every clip
+// (docs/feet.md): without noise, skating <= 1.05x the capture's and the knees' peak angular speed
+// <= 1.2x the input's, at both rates; with noise, on every clip, locking lowers skating below
 // --feet off and keeps it <= 1.2x the capture's (the target; it held only where the
 // contacts found on the noisy input covered 55 % of the capture's until the contact detector
-// allowed for the noise's own speed, README "Feet", "Contacts"). Only printed, as it does not
+// allowed for the noise's own speed, docs/feet.md, "Contacts"). Only printed, as it does not
 // hold on every clip: with noise, joint position error <= 0.6x the noisy input's.
 #include <gtest/gtest.h>
 
@@ -153,7 +153,7 @@ Loaded load(int step) {
   return out;
 }
 
-// With MOCAP_FEET_FIGURE=PATH: the README's figure, the horizontal track of one ankle during
+// With MOCAP_FEET_FIGURE=PATH: docs/feet.md's figure, the horizontal track of one ankle during
 // one contact of `clip` (its longest, with 0.04 s either side), capture / --feet off / lock, as
 // the horizontal distance from where the capture's ankle stands at the contact's middle.
 void write_figure(const std::string& name, const Clip& capture, const Clip& off, const Clip& on,

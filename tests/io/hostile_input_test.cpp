@@ -318,7 +318,7 @@ TEST_F(HostileLibrary, DuplicateJointNames) {
 }
 
 // Variable-length strings live in HDF5's global heap, whose decoding in libhdf5 1.10 crashes and
-// hangs on damaged files (the fuzz findings in README "Nothing lost"): refused before reading.
+// hangs on damaged files (the fuzz findings in docs/reliability.md): refused before reading.
 TEST_F(HostileLibrary, VariableLengthJointNamesAreRefusedUnread) {
   Editor(lib()).replace_variable_strings(skeleton_group() + "/joint_names",
                                          make_skeleton(kJoints)->joint_names);

@@ -227,7 +227,7 @@ TEST(FootContacts, TheNoiseAllowanceLeavesANoiseFreeWalkAsItWas) {
 // at swing speed (1 body height per second) is never planted, at 120 and 30 fps (its first and
 // last 0.1 s aside: the mirrored smoothing holds a clip's end frames still, noise or not).
 // Limit: at 30 fps, where this noise reads as 0.2 body heights per second, a glide at 0.6 gets
-// contacts of 2-3 frames (README "Feet", "Contacts").
+// contacts of 2-3 frames (docs/feet.md, "Contacts").
 TEST(FootContacts, TheNoiseAllowancePlantsNoFootAtSwingSpeed) {
   for (double fps : {30.0, 120.0}) {
     const int frames = int(4 * fps);

@@ -280,7 +280,7 @@ struct Draws {
 
 // A pin out of the leg's reach at a contact's ends while the filter left the thigh a hair off
 // on every other frame (as noise does): lowering the root by each frame's own need makes it step
-// down and back up from frame to frame where that need comes and goes (README "Feet", "Reach").
+// down and back up from frame to frame where that need comes and goes (docs/feet.md, "Reach").
 // The drops' envelope (header, "Reach") lowers no frame less than it needs minus the input
 // anchors' own noise m (0 without them) nor deeper than the deepest need within w frames; the
 // ankle lands where the per-frame lock put it, or short of it by no more than the root was

@@ -82,7 +82,7 @@ TEST(MotionSplit, EulerWrapAroundsAreNotSteps) {
 
 // The CMU "Motionbuilder-friendly" clips start with a synthetic T-pose: exactly one cut, after
 // frame 0, in every clip but one. 06_14's LThumb (a joint CMU did not capture) flips by pi at
-// gimbal lock 16 times; those are the only other cuts (README "eval").
+// gimbal lock 16 times; those are the only other cuts (docs/eval.md).
 TEST(MotionSplit, SharedCmuClipsAreCutAfterTheirTPoseFrame) {
   MOCAP_REQUIRE_SHARED_CLIPS();
   int exactly_one = 0;

@@ -633,7 +633,7 @@ TEST(PopRepair, FastPathMatchesReferenceOnShortClips) {
   }
 }
 
-// Not a bound on the machine, a number for the README.
+// Not a bound on the machine, a number for docs/pops.md.
 TEST(PopRepair, RunTime) {
   Motion noisy = fast_smooth_motion(6, 600, 31, 0.1);
   add_noise(ImpulseNoise{}, noisy.span());

@@ -160,8 +160,9 @@ TEST(PopScreen, SameFlagsAsTheFullTestOnTheSharedClips) {
           "%.2f of the values they hold wide\n",
           stride, label, t.screened, t.samples, 100.0 * double(t.screened) / double(t.samples),
           t.flags, t.width / t.value);
-    // The screen's point: most samples skip the fits. Measured: see the printed lines (README
-    // "Where the time goes"); asserted loosely so that the test says when the bound degrades.
+    // The screen's point: most samples skip the fits. Measured: see the printed lines
+    // (docs/performance.md, "Where the time goes"); asserted loosely so that the test says when the
+    // bound degrades.
     if (stride == 1) {
       EXPECT_GT(double(clean.screened), 0.8 * double(clean.samples));
       EXPECT_GT(double(popped.screened), 0.5 * double(popped.samples));

@@ -31,7 +31,7 @@ std::vector<Case> cases() {
   std::vector<Case> out;
   // A finite sigma_p must stay well above the root's travel per frame: at 0.5 (against 1.2 units a
   // frame) the range term reweights the window unevenly from frame to frame and the walk below
-  // came out with 3.0x its jitter (README, "Translations").
+  // came out with 3.0x its jitter (docs/positions.md, "Translations").
   for (double sigma_p : {std::numeric_limits<double>::infinity(), 5.0}) {
     BilateralParams p;
     p.sigma_p = sigma_p;

@@ -163,7 +163,7 @@ CONFIGS = [
     ("moving-mean, no options",
      ["--method", "moving-mean"],
      lambda q, p, ft: sf.moving_mean_filter(q, p, 5, "mirror")),
-    # Automatic parameters, by the rules the README documents (section "Automatic parameters"):
+    # Automatic parameters, by the rules docs/automatic-parameters.md documents:
     # nlpm h = 1.2 sigma_hat and the translations' Gaussian from their estimated noise; bof sigma_g = 3 sigma_hat, sigma_t = max(1, 10 sqrt(sigma_hat)),
     # with sigma_hat the spec's noise estimate of the clip.
     ("nlpm, no options (h = 1.2 sigma_hat)",

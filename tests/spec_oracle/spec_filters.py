@@ -421,7 +421,7 @@ def nlpm_weights(q, K, P, h, boundary="mirror", space="tangent", dist_joints=Non
 
 
 def gaussian_pos(p, sigma_t, boundary):
-    """nlpm's translations (README "Translations"; the spec's first pose-weighted mean of p[s] is
+    """nlpm's translations (docs/positions.md, "Translations"; the spec's first pose-weighted mean of p[s] is
     withdrawn): p'[t] = sum_r exp(-r^2 / (2 s^2)) p[t+r] / sum_r exp(-r^2 / (2 s^2)),
     r in [-ceil(3 s), ceil(3 s)], boundary-extended; s = 0 leaves p as it is."""
     if sigma_t <= 0 or p.shape[0] < 2:
@@ -433,7 +433,7 @@ def gaussian_pos(p, sigma_t, boundary):
 
 
 def translation_noise(p, frame_time):
-    """(sigma, accel) of the translations (README "Translations", automatic width): sigma = max
+    """(sigma, accel) of the translations (docs/positions.md, "Translations", automatic width): sigma = max
     over joints of 1.4826 MAD of the third-difference components / sqrt(20); accel = that joint's
     RMS second-difference component after a Gaussian of 0.1 s (mirror), away from the ends."""
     F, J = p.shape[:2]
@@ -474,7 +474,7 @@ def rest_height(m):
 
 
 def automatic_translation_sigma_t(p, frame_time, body_height):
-    """README "Translations": 0 unless the positions are noisy (sigma > 0.0015 body heights) and
+    """docs/positions.md, "Translations": 0 unless the positions are noisy (sigma > 0.0015 body heights) and
     the clip is long enough to measure accel; else 1.3 (sigma^2 / (2 sqrt(pi) accel^2))^(1/5)
     frames, at most 0.2 s."""
     sigma, accel = translation_noise(p, frame_time)

@@ -146,7 +146,7 @@ TEST(PopSkeleton, TwoNeighbouringPopsInOneFrameAreRepaired) {
 }
 
 TEST(PopSkeleton, AtHighFrameRatesTheSkeletonIsNotAsked) {
-  // 120 fps: the per-joint test's flags (README "Pops"), parents or not; the detour test a clip
+  // 120 fps: the per-joint test's flags (docs/pops.md), parents or not; the detour test a clip
   // with many pops adds (the test below) keeps none of a limb that moves together.
   test::Motion a = limb({0, 1, 1, 1, 1}, 0.6), b = a;
   const auto with =

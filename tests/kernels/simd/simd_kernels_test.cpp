@@ -114,7 +114,7 @@ Agreement agreement(const Motion& m, const std::vector<float>& a, const std::vec
   return out;
 }
 
-// The worst agreement seen by a test, printed at its end for the record (README "Performance").
+// The worst agreement seen by a test, printed at its end for the record (docs/performance.md).
 struct Worst {
   const char* what;
   double rms = 0, max = 0;
