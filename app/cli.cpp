@@ -86,7 +86,10 @@ int run_cli(int argc, char** argv) {
        "mocap-clean clean a.bvh b.bvh -o out/ --method nlpm --json"},
       "Each file keeps its path relative to the folder it was found in. A file that fails\n"
       "is named with its error; the others are still written (exit status 1). An output\n"
-      "folder that already holds files is refused without --resume or --overwrite."));
+      "folder that already holds files is refused without --resume or --overwrite.\n"
+      "In depth, in the source tree: docs/automatic-parameters.md (--method auto),\n"
+      "docs/pops.md (--pops, --garbage-joints), docs/feet.md (--feet), docs/positions.md\n"
+      "(--guard: \"Never worse\")."));
 
   DemoCommand demo;
   CLI::App* demo_cmd = app.add_subcommand(
@@ -136,7 +139,8 @@ int run_cli(int argc, char** argv) {
                "parameters in /provenance, and per clip what was done (attributes method,\n"
                "parameters, noise_sigma and a dataset pops in each clip's group).\n"
                "An interrupted run leaves OUT valid with the clips finished so far; --resume\n"
-               "completes it."));
+               "completes it. In depth, in the source tree: docs/automatic-parameters.md,\n"
+               "docs/pops.md, docs/feet.md, docs/positions.md (the guard), docs/reliability.md."));
 
   ExportCommand export_;
   CLI::App* export_cmd =
