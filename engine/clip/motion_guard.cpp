@@ -148,13 +148,18 @@ Status MotionGuardJob::run() {
   output->translations = input->translations;
   unlock();
   kept = Kept::input;
-  after = repaired ? std::move(*repaired) : measure_motion(*output, before, *segments);
+  // Measured already: the repaired input above, and an input the pop stage left as read is the
+  // clip `before` measured (the same positions, segments and contacts).
+  if (repaired)
+    after = std::move(*repaired);
+  else
+    after = raw ? *before : measure_motion(*output, before, *segments);
   if (!raw || !raises_motion(after, *before)) return {};
   // The pop stage's repairs themselves raised jitter or skating: the clip as read.
   output->rotations = raw->rotations;
   output->translations = raw->translations;
   kept = Kept::as_read;
-  after = measure_motion(*output, before, *segments);
+  after = *before;
   return {};
 }
 
